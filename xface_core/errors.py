@@ -1,0 +1,25 @@
+"""Exceptions raised by xface_core.
+
+Every exception derives from :class:`XfaceError`; the value errors also derive from
+:class:`ValueError` so callers that already catch the built-in keep working.
+"""
+
+from __future__ import annotations
+
+__all__ = ["GeometryError", "InputError", "XfaceError", "XfaceValueError"]
+
+
+class XfaceError(Exception):
+    """Base class of every error raised by xface_core."""
+
+
+class XfaceValueError(XfaceError, ValueError):
+    """A parameter is outside its documented range (NaN, infinite, negative size, ...)."""
+
+
+class GeometryError(XfaceValueError):
+    """A face design cannot exist: invalid polygons, overlapping mated parts, bad layers."""
+
+
+class InputError(XfaceValueError):
+    """A query pose cannot be simulated (NaN, infinity, absurd magnitude)."""

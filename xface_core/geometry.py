@@ -1,0 +1,350 @@
+"""Face geometry: the X-, V- and S-Face profiles and user-defined layered faces.
+
+Every part has a body frame with its pivot (rotation point) at the origin and its profile
+facing +y; the profile's base line lies at ``y = r_p * D`` and rises at most ``H`` above it.
+The base part sits at the world origin; the moving part is the same kind of part turned
+180 degrees in the plane, so a body point ``v`` of it is at ``P_M - R(phi_M) v`` in the world.
+
+A design holds, per layer, one closed polygon (counter-clockwise) for the base part and one
+for the moving part, both in their own body frames and in units of the face width D (the
+simulator works in units of D; :attr:`FaceDesign.width` only scales inputs and outputs).
+Contacts only occur between equal layers.
+
+Below the profile each body extends down to ``y = -body_depth`` (default one width below the
+pivot, ``body_depth = 1``), so the pivot lies inside the body and the side walls are long
+enough that contacts happen on the profile and the walls, never on the bottom.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+import numpy.typing as npt
+import shapely
+
+from .errors import GeometryError, XfaceValueError
+
+__all__ = [
+    "FaceDesign",
+    "FaceKind",
+    "custom_face",
+    "make_face",
+    "s_face",
+    "v_face",
+    "x_face",
+]
+
+FaceKind = Literal["X", "V", "S", "custom"]
+FloatArray = npt.NDArray[np.float64]
+
+#: Largest accepted H/D and r_p: beyond these the paper's metric "plateaus" (Section IV-A)
+#: and double precision starts to lose the profile against the pivot distance.
+MAX_DESIGN_RATIO = 1.0e4
+
+
+def _check_ratio(name: str, value: float, *, allow_zero: bool) -> float:
+    value = float(value)
+    if not math.isfinite(value):
+        raise XfaceValueError(f"{name} must be finite, got {value!r}")
+    if value < 0.0 or (value == 0.0 and not allow_zero):
+        bound = ">= 0" if allow_zero else "> 0"
+        raise XfaceValueError(f"{name} must be {bound}, got {value!r}")
+    if value > MAX_DESIGN_RATIO:
+        raise XfaceValueError(f"{name} must be <= {MAX_DESIGN_RATIO:g}, got {value!r}")
+    return value
+
+
+@dataclass(frozen=True, eq=False)
+class FaceDesign:
+    """A connector design: one polygon per layer for each part, in units of the width D.
+
+    Build one with :func:`x_face`, :func:`v_face`, :func:`s_face` or :func:`custom_face`
+    rather than directly.
+
+    Attributes
+    ----------
+    kind : {"X", "V", "S", "custom"}
+    h_over_d : float
+        Profile height H over width D (dimensionless).
+    r_p : float
+        Distance from the pivot to the profile's base line, in widths D.
+    width : float
+        The face width D in the caller's length unit (metres in the ROS node); only used to
+        scale poses in and out.
+    mated_distance : float
+        Pivot-to-pivot distance L when seated, in widths D (``2 r_p + H/D`` for the built-in
+        faces).
+    base_layers, moving_layers : tuple of (n, 2) float arrays
+        Closed counter-clockwise polygons, body frames, units of D.
+    mirror_symmetric : bool
+        True when mirroring x -> -x maps the design onto itself, so that the outcome at
+        (x0, theta0) equals the outcome at (-x0, -theta0).
+    """
+
+    kind: FaceKind
+    h_over_d: float
+    r_p: float
+    width: float
+    mated_distance: float
+    base_layers: tuple[FloatArray, ...] = field(repr=False)
+    moving_layers: tuple[FloatArray, ...] = field(repr=False)
+    mirror_symmetric: bool = False
+    body_depth: float = 1.0
+
+    @property
+    def height(self) -> float:
+        """Profile height H in the caller's length unit."""
+        return self.h_over_d * self.width
+
+    @property
+    def n_layers(self) -> int:
+        """Number of layers (2 for the X-Face, 1 for V and S)."""
+        return len(self.base_layers)
+
+    @property
+    def cache_key(self) -> tuple[object, ...]:
+        """A hashable key that identifies the geometry (not the width)."""
+        return (
+            self.kind,
+            self.mated_distance,
+            tuple(tuple(map(float, p.ravel())) for p in self.base_layers),
+            tuple(tuple(map(float, p.ravel())) for p in self.moving_layers),
+        )
+
+    def with_width(self, width: float) -> FaceDesign:
+        """The same design at another width D (lengths in the caller's unit)."""
+        width = _check_ratio("width", width, allow_zero=False)
+        return FaceDesign(
+            kind=self.kind,
+            h_over_d=self.h_over_d,
+            r_p=self.r_p,
+            width=width,
+            mated_distance=self.mated_distance,
+            base_layers=self.base_layers,
+            moving_layers=self.moving_layers,
+            mirror_symmetric=self.mirror_symmetric,
+            body_depth=self.body_depth,
+        )
+
+    def seated_angle(self, x0: float) -> float:
+        """The common angle phi (rad) at which the parts seat for lateral offset ``x0``.
+
+        ``x0`` is in the caller's unit; raises when ``|x0| > L`` (no seat exists).
+        """
+        ratio = -x0 / (self.mated_distance * self.width)
+        if not abs(ratio) <= 1.0:
+            raise XfaceValueError(f"|x0| = {abs(x0):g} exceeds the mated distance: no seat")
+        return math.asin(ratio)
+
+    def moving_outline_world(
+        self, layer: int, x0: float, y_m: float, phi_m: float
+    ) -> FloatArray:
+        """The moving part's polygon of ``layer`` in the world (units of D)."""
+        return _moving_to_world(self.moving_layers[layer], x0, y_m, phi_m)
+
+    def base_outline_world(self, layer: int, phi_b: float) -> FloatArray:
+        """The base part's polygon of ``layer`` in the world (units of D)."""
+        c, s = math.cos(phi_b), math.sin(phi_b)
+        poly = self.base_layers[layer]
+        return np.column_stack((c * poly[:, 0] - s * poly[:, 1], s * poly[:, 0] + c * poly[:, 1]))
+
+
+def _moving_to_world(poly: FloatArray, x0: float, y_m: float, phi_m: float) -> FloatArray:
+    c, s = math.cos(phi_m), math.sin(phi_m)
+    return np.column_stack(
+        (x0 - (c * poly[:, 0] - s * poly[:, 1]), y_m - (s * poly[:, 0] + c * poly[:, 1]))
+    )
+
+
+def _strip(profile: Sequence[tuple[float, float]], depth: float) -> FloatArray:
+    """Close a profile polyline (left to right) into a CCW polygon reaching down to -depth."""
+    pts = [(0.5, -depth), *reversed(profile), (-0.5, -depth)]
+    # reversed profile runs right to left along the top, which is CCW with the bottom first.
+    return np.asarray(pts, dtype=np.float64)
+
+
+def _design(
+    kind: FaceKind,
+    h_over_d: float,
+    r_p: float,
+    width: float,
+    base_profiles: Sequence[Sequence[tuple[float, float]]],
+    moving_profiles: Sequence[Sequence[tuple[float, float]]],
+    *,
+    mirror_symmetric: bool,
+    body_depth: float,
+) -> FaceDesign:
+    depth = _check_ratio("body_depth", body_depth, allow_zero=True)
+    base = tuple(_strip(p, depth) for p in base_profiles)
+    moving = tuple(_strip(p, depth) for p in moving_profiles)
+    return FaceDesign(
+        kind=kind,
+        h_over_d=h_over_d,
+        r_p=r_p,
+        width=width,
+        mated_distance=2.0 * r_p + h_over_d,
+        base_layers=base,
+        moving_layers=moving,
+        mirror_symmetric=mirror_symmetric,
+        body_depth=depth,
+    )
+
+
+def _common(h_over_d: float, r_p: float, width: float) -> tuple[float, float, float]:
+    return (
+        _check_ratio("h_over_d", h_over_d, allow_zero=False),
+        _check_ratio("r_p", r_p, allow_zero=True),
+        _check_ratio("width", width, allow_zero=False),
+    )
+
+
+def x_face(
+    h_over_d: float, r_p: float, *, width: float = 1.0, body_depth: float = 1.0
+) -> FaceDesign:
+    """The two-layer X-Face: two mirrored sawtooth strips acting on the same rigid parts.
+
+    Layer 1's top edge runs from (-D/2, r_p D) up to (+D/2, r_p D + H) with a wall at
+    x = +D/2; layer 2 is its mirror image. Each layer is its own complement when the part is
+    turned 180 degrees, so the face is genderless.
+
+    Examples
+    --------
+    >>> d = x_face(0.25, 2.0)
+    >>> d.n_layers, d.mated_distance
+    (2, 4.25)
+    """
+    h, rp, w = _common(h_over_d, r_p, width)
+    layer1 = [(-0.5, rp), (0.5, rp + h)]
+    layer2 = [(-0.5, rp + h), (0.5, rp)]
+    return _design(
+        "X", h, rp, w, [layer1, layer2], [layer1, layer2],
+        mirror_symmetric=True, body_depth=body_depth,
+    )
+
+
+def v_face(
+    h_over_d: float, r_p: float, *, width: float = 1.0, body_depth: float = 1.0
+) -> FaceDesign:
+    """The gendered V-Face: the base carries the male isosceles triangle (base D, height H),
+    the moving part the complementary notch.
+
+    Examples
+    --------
+    >>> v_face(1.0, 0.0).mated_distance
+    1.0
+    """
+    h, rp, w = _common(h_over_d, r_p, width)
+    male = [(-0.5, rp), (0.0, rp + h), (0.5, rp)]
+    female = [(-0.5, rp + h), (0.0, rp), (0.5, rp + h)]
+    return _design("V", h, rp, w, [male], [female], mirror_symmetric=True, body_depth=body_depth)
+
+
+def s_face(
+    h_over_d: float, r_p: float, *, width: float = 1.0, body_depth: float = 1.0
+) -> FaceDesign:
+    """The genderless S-Face zig-zag with vertices at x = -D/2, -D/6, +D/6, +D/2.
+
+    The ends lie on the mid line ``r_p D + H/2``; the inner vertices are H/2 above and below
+    it (H is peak to trough). The profile is point-symmetric, hence its own complement.
+    """
+    h, rp, w = _common(h_over_d, r_p, width)
+    mid = rp + 0.5 * h
+    zig = [(-0.5, mid), (-1.0 / 6.0, rp + h), (1.0 / 6.0, rp), (0.5, mid)]
+    return _design("S", h, rp, w, [zig], [zig], mirror_symmetric=False, body_depth=body_depth)
+
+
+_FACTORIES = {"X": x_face, "V": v_face, "S": s_face}
+
+
+def make_face(
+    kind: str, h_over_d: float, r_p: float, *, width: float = 1.0, body_depth: float = 1.0
+) -> FaceDesign:
+    """Build a built-in face by its letter ("X", "V" or "S", case-insensitive).
+
+    Examples
+    --------
+    >>> make_face("s", 0.5, 1.0).kind
+    'S'
+    """
+    try:
+        factory = _FACTORIES[kind.upper()]
+    except (KeyError, AttributeError):
+        raise XfaceValueError(f"face must be one of X, V, S; got {kind!r}") from None
+    return factory(h_over_d, r_p, width=width, body_depth=body_depth)
+
+
+def custom_face(
+    base_layers: Sequence[npt.ArrayLike],
+    moving_layers: Sequence[npt.ArrayLike],
+    *,
+    mated_distance: float,
+    width: float = 1.0,
+    mirror_symmetric: bool = False,
+) -> FaceDesign:
+    """A user-defined face: one simple polygon per layer for each part, in units of D.
+
+    Polygons are given in each part's body frame (pivot at the origin, profile facing +y)
+    and may be convex or simple non-convex; they are validated with shapely and oriented
+    counter-clockwise. ``mated_distance`` is the pivot-to-pivot distance L (in D) at which
+    the parts are seated at equal angles; the mated parts must not overlap.
+
+    Raises
+    ------
+    GeometryError
+        Layer counts differ, a polygon is not simple or has fewer than three vertices, or
+        the mated parts overlap.
+
+    Examples
+    --------
+    >>> sq = [(-0.5, -1.0), (0.5, -1.0), (0.5, 0.5), (-0.5, 0.5)]
+    >>> custom_face([sq], [sq], mated_distance=1.0).n_layers
+    1
+    >>> custom_face([sq], [sq], mated_distance=0.5)
+    Traceback (most recent call last):
+    ...
+    xface_core.errors.GeometryError: layer 0: the mated parts overlap (area 0.5 D^2)
+    """
+    if len(base_layers) != len(moving_layers) or not base_layers:
+        raise GeometryError("base and moving parts need the same number (>= 1) of layers")
+    L = _check_ratio("mated_distance", mated_distance, allow_zero=False)
+    w = _check_ratio("width", width, allow_zero=False)
+    base = tuple(_validated_polygon(p, f"base layer {i}") for i, p in enumerate(base_layers))
+    moving = tuple(
+        _validated_polygon(p, f"moving layer {i}") for i, p in enumerate(moving_layers)
+    )
+    for i, (b, m) in enumerate(zip(base, moving, strict=True)):
+        overlap = shapely.Polygon(b).intersection(
+            shapely.Polygon(_moving_to_world(m, 0.0, L, 0.0))
+        ).area
+        if overlap > 1e-9:
+            raise GeometryError(f"layer {i}: the mated parts overlap (area {overlap:.3g} D^2)")
+    return FaceDesign(
+        kind="custom",
+        h_over_d=float("nan"),
+        r_p=float("nan"),
+        width=w,
+        mated_distance=L,
+        base_layers=base,
+        moving_layers=moving,
+        mirror_symmetric=mirror_symmetric,
+        body_depth=-min(float(p[:, 1].min()) for p in base),
+    )
+
+
+def _validated_polygon(points: npt.ArrayLike, name: str) -> FloatArray:
+    arr = np.asarray(points, dtype=np.float64)
+    if arr.ndim != 2 or arr.shape[1] != 2 or arr.shape[0] < 3:
+        raise GeometryError(f"{name}: need an (n >= 3, 2) array of vertices, got {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise GeometryError(f"{name}: vertices must be finite")
+    poly = shapely.Polygon(arr)
+    if not poly.is_valid or poly.area <= 0.0:
+        reason = shapely.is_valid_reason(poly)
+        raise GeometryError(f"{name}: not a simple polygon ({reason})")
+    if not shapely.is_ccw(poly.exterior):
+        arr = arr[::-1].copy()
+    return arr
