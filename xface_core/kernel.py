@@ -1,0 +1,909 @@
+"""The compiled quasi-static docking kernel (numba).
+
+One run simulates one initial pose in units of D:
+
+1. **Approach**: translation along -y with frozen angles to the exact first contact
+   (closed-form vertex-against-edge distances, no integration).
+2. **Alignment and slide**: with q = (phi_B, phi_M) and descent s, each active contact i
+   has a gap g_i, a gradient a_i = dg_i/dq and beta_i = dg_i/dy_M.  Overdamped frictionless
+   motion is the least-dissipation rate ``v = dq/ds`` minimising ``v' W v`` subject to
+   ``a_i . v >= beta_i`` (a 2-variable QP, solved by enumerating its active sets).  Between
+   changes of the active set the path is a smooth ODE in s, integrated with Dormand-Prince
+   5(4) and error control, projected back onto the active constraints after every step, with
+   events (new contact, release, vertex leaving an edge, end conditions) located by Illinois
+   root finding on the step length.
+3. **End**: descent blocked (seated or jammed), no further contact (passed), or a guard.
+
+Everything here works on plain float arrays so numba can compile it; the Python wrapper
+in :mod:`xface_core.predict` turns results into typed objects.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import numpy.typing as npt
+from numba import njit
+
+from .contact import eval_pair
+
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.int64]
+
+# ---- settings vector layout (see predict.SolverSettings) --------------------------------
+S_RTOL = 0
+S_ATOL = 1
+S_EVENT_TOL = 2
+S_TOUCH_TOL = 3
+S_SEAT_TOL = 4
+S_MAX_STEP = 5
+S_MAX_STEPS = 6
+S_MAX_EVENTS = 7
+S_WINV_B = 8
+S_WINV_M = 9
+S_JAM_SPEED = 10
+S_FIRST_STEP = 11
+N_SETTINGS = 12
+
+# ---- outcome codes (values of outcome.Outcome) ------------------------------------------
+O_INVALID = 0
+O_OUT_OF_REACH = 1
+O_NO_CONTACT = 2
+O_SEATED = 3
+O_BAD_MATE = 4
+O_PASSED = 5
+O_UNRESOLVED = 6
+
+# ---- reason codes (texts in predict.REASONS) --------------------------------------------
+R_SEATED = 0
+R_JAMMED = 1
+R_BELOW_SEAT = 2
+R_PASSED = 3
+R_NO_CONTACT = 4
+R_SPUN = 5
+R_SINGULAR = 6
+R_STEP_LIMIT = 7
+R_EVENT_LIMIT = 8
+R_OVERLAP = 9
+R_OUT_OF_REACH = 10
+R_NONFINITE = 11
+
+# ---- phases (values of result.Phase) ----------------------------------------------------
+P_APPROACH = 0
+P_ALIGN = 1
+P_SLIDE = 2
+P_END = 3
+
+# ---- event kinds -------------------------------------------------------------------------
+E_NONE = 0
+E_CONTACT = 1
+E_RELEASE = 2
+E_OFF_EDGE = 3
+E_BELOW_SEAT = 4
+E_SPUN = 5
+
+TINY = 1e-300
+ALIGN_TOL = 1e-9
+MAX_CAND = 16
+
+# Dormand-Prince 5(4) tableau.
+A21 = 1.0 / 5.0
+A31, A32 = 3.0 / 40.0, 9.0 / 40.0
+A41, A42, A43 = 44.0 / 45.0, -56.0 / 15.0, 32.0 / 9.0
+A51, A52, A53, A54 = 19372.0 / 6561.0, -25360.0 / 2187.0, 64448.0 / 6561.0, -212.0 / 729.0
+A61, A62, A63, A64, A65 = (
+    9017.0 / 3168.0,
+    -355.0 / 33.0,
+    46732.0 / 5247.0,
+    49.0 / 176.0,
+    -5103.0 / 18656.0,
+)
+B1, B3, B4, B5, B6 = 35.0 / 384.0, 500.0 / 1113.0, 125.0 / 192.0, -2187.0 / 6784.0, 11.0 / 84.0
+E1, E3, E4, E5, E6, E7 = (
+    71.0 / 57600.0,
+    -71.0 / 16695.0,
+    71.0 / 1920.0,
+    -17253.0 / 339200.0,
+    22.0 / 525.0,
+    -1.0 / 40.0,
+)
+
+
+@njit(cache=True)
+def _eval(table: FloatArray, i: int, pb: float, pm: float, x0: float, ym: float) -> tuple[
+    float, float, float, float, float, float, float, float, float
+]:
+    return eval_pair(table[i], math.cos(pb), math.sin(pb), math.cos(pm), math.sin(pm), x0, ym)
+
+
+@njit(cache=True)
+def _eval_all(table: FloatArray, pb: float, pm: float, x0: float, ym: float, out: FloatArray) -> None:
+    cb, sb, cm, sm = math.cos(pb), math.sin(pb), math.cos(pm), math.sin(pm)
+    for i in range(table.shape[0]):
+        g, u, ab, am, be, _px, _py, _nx, _ny = eval_pair(table[i], cb, sb, cm, sm, x0, ym)
+        out[i, 0] = g
+        out[i, 1] = u
+        out[i, 2] = ab
+        out[i, 3] = am
+        out[i, 4] = be
+
+
+@njit(cache=True)
+def _feasible(ev: FloatArray, cand: IntArray, nc: int, vb: float, vm: float, tol: float) -> bool:
+    for k in range(nc):
+        j = cand[k]
+        if ev[j, 2] * vb + ev[j, 3] * vm < ev[j, 4] - tol * (1.0 + abs(ev[j, 4])):
+            return False
+    return True
+
+
+@njit(cache=True)
+def _solve_qp(
+    ev: FloatArray, cand: IntArray, nc: int, sqb: float, sqm: float, tol: float, act: IntArray
+) -> tuple[int, int, float, float]:
+    """Least-dissipation rate over the candidate contacts.
+
+    Returns ``(status, n_active, v_b, v_m)``; status 1 means no descent is possible
+    (the constraints are infeasible: the parts are blocked).  The QP is strictly convex in
+    the scaled variables u = W^(1/2) v, so the first KKT point found is the optimum.
+    """
+    needs_motion = False
+    for k in range(nc):
+        if ev[cand[k], 4] > tol:
+            needs_motion = True
+    if not needs_motion:
+        return 0, 0, 0.0, 0.0
+    for k in range(nc):
+        i = cand[k]
+        b = ev[i, 4]
+        if b <= 0.0:
+            continue
+        ab = ev[i, 2] * sqb
+        am = ev[i, 3] * sqm
+        nn = ab * ab + am * am
+        if nn <= 1e-24:
+            continue
+        lam = b / nn
+        vb = lam * ab * sqb
+        vm = lam * am * sqm
+        if _feasible(ev, cand, nc, vb, vm, tol):
+            act[0] = i
+            return 0, 1, vb, vm
+    for k in range(nc):
+        i = cand[k]
+        ab1 = ev[i, 2] * sqb
+        am1 = ev[i, 3] * sqm
+        b1 = ev[i, 4]
+        for m in range(k + 1, nc):
+            j = cand[m]
+            ab2 = ev[j, 2] * sqb
+            am2 = ev[j, 3] * sqm
+            b2 = ev[j, 4]
+            det = ab1 * am2 - am1 * ab2
+            scale = math.sqrt((ab1 * ab1 + am1 * am1) * (ab2 * ab2 + am2 * am2))
+            if abs(det) <= 1e-12 * scale or scale <= 1e-24:
+                continue
+            ub = (b1 * am2 - am1 * b2) / det
+            um = (ab1 * b2 - b1 * ab2) / det
+            l1 = (ub * am2 - ab2 * um) / det
+            l2 = (ab1 * um - am1 * ub) / det
+            if l1 < 0.0 or l2 < 0.0:
+                continue
+            vb = ub * sqb
+            vm = um * sqm
+            if _feasible(ev, cand, nc, vb, vm, tol):
+                act[0] = i
+                act[1] = j
+                return 0, 2, vb, vm
+    return 1, 0, 0.0, 0.0
+
+
+@njit(cache=True)
+def _velocity(
+    table: FloatArray,
+    act: IntArray,
+    nact: int,
+    pb: float,
+    pm: float,
+    x0: float,
+    ym: float,
+    sqb: float,
+    sqm: float,
+) -> tuple[float, float, float, float]:
+    """Rate dq/ds with the active set held fixed; returns (v_b, v_m, lambda_0, lambda_1).
+
+    Non-finite rates signal a singular configuration (a contact normal through both pivots).
+    """
+    g1, u1, ab1, am1, b1, _, _, _, _ = _eval(table, act[0], pb, pm, x0, ym)
+    ab1 *= sqb
+    am1 *= sqm
+    if nact == 1:
+        nn = ab1 * ab1 + am1 * am1
+        if nn <= 1e-24:
+            return math.nan, math.nan, math.nan, 0.0
+        lam = b1 / nn
+        return lam * ab1 * sqb, lam * am1 * sqm, lam, 0.0
+    g2, u2, ab2, am2, b2, _, _, _, _ = _eval(table, act[1], pb, pm, x0, ym)
+    ab2 *= sqb
+    am2 *= sqm
+    det = ab1 * am2 - am1 * ab2
+    if det == 0.0:
+        return math.nan, math.nan, math.nan, math.nan
+    ub = (b1 * am2 - am1 * b2) / det
+    um = (ab1 * b2 - b1 * ab2) / det
+    l1 = (ub * am2 - ab2 * um) / det
+    l2 = (ab1 * um - am1 * ub) / det
+    return ub * sqb, um * sqm, l1, l2
+
+
+@njit(cache=True)
+def _project(
+    table: FloatArray,
+    act: IntArray,
+    nact: int,
+    pb: float,
+    pm: float,
+    x0: float,
+    ym: float,
+    winv_b: float,
+    winv_m: float,
+) -> tuple[float, float]:
+    """Newton-project (phi_B, phi_M) onto the active constraints g = 0 at fixed y_M,
+    along the least-dissipation metric (keeps the constraint violation at round-off)."""
+    for _ in range(3):
+        g1, _, ab1, am1, _, _, _, _, _ = _eval(table, act[0], pb, pm, x0, ym)
+        if nact == 1:
+            nn = ab1 * ab1 * winv_b + am1 * am1 * winv_m
+            if nn <= 1e-24:
+                break
+            lam = -g1 / nn
+            pb += lam * ab1 * winv_b
+            pm += lam * am1 * winv_m
+            if abs(g1) < 1e-15:
+                break
+        else:
+            g2, _, ab2, am2, _, _, _, _, _ = _eval(table, act[1], pb, pm, x0, ym)
+            m11 = ab1 * ab1 * winv_b + am1 * am1 * winv_m
+            m12 = ab1 * ab2 * winv_b + am1 * am2 * winv_m
+            m22 = ab2 * ab2 * winv_b + am2 * am2 * winv_m
+            det = m11 * m22 - m12 * m12
+            if det <= 1e-24 * (m11 * m22 + TINY):
+                break
+            l1 = (-g1 * m22 + g2 * m12) / det
+            l2 = (-g2 * m11 + g1 * m12) / det
+            pb += (l1 * ab1 + l2 * ab2) * winv_b
+            pm += (l1 * am1 + l2 * am2) * winv_m
+            if abs(g1) < 1e-15 and abs(g2) < 1e-15:
+                break
+    return pb, pm
+
+
+@njit(cache=True)
+def _rk_step(
+    table: FloatArray,
+    act: IntArray,
+    nact: int,
+    pb: float,
+    pm: float,
+    x0: float,
+    ym: float,
+    h: float,
+    sqb: float,
+    sqm: float,
+    winv_b: float,
+    winv_m: float,
+) -> tuple[float, float, float, float, bool]:
+    """One Dormand-Prince step of length h in descent; returns (pb, pm, err_b, err_m, ok)."""
+    k1b, k1m, _, _ = _velocity(table, act, nact, pb, pm, x0, ym, sqb, sqm)
+    k2b, k2m, _, _ = _velocity(
+        table, act, nact, pb + h * A21 * k1b, pm + h * A21 * k1m, x0, ym - h / 5.0, sqb, sqm
+    )
+    k3b, k3m, _, _ = _velocity(
+        table,
+        act,
+        nact,
+        pb + h * (A31 * k1b + A32 * k2b),
+        pm + h * (A31 * k1m + A32 * k2m),
+        x0,
+        ym - h * 0.3,
+        sqb,
+        sqm,
+    )
+    k4b, k4m, _, _ = _velocity(
+        table,
+        act,
+        nact,
+        pb + h * (A41 * k1b + A42 * k2b + A43 * k3b),
+        pm + h * (A41 * k1m + A42 * k2m + A43 * k3m),
+        x0,
+        ym - h * 0.8,
+        sqb,
+        sqm,
+    )
+    k5b, k5m, _, _ = _velocity(
+        table,
+        act,
+        nact,
+        pb + h * (A51 * k1b + A52 * k2b + A53 * k3b + A54 * k4b),
+        pm + h * (A51 * k1m + A52 * k2m + A53 * k3m + A54 * k4m),
+        x0,
+        ym - h * (8.0 / 9.0),
+        sqb,
+        sqm,
+    )
+    k6b, k6m, _, _ = _velocity(
+        table,
+        act,
+        nact,
+        pb + h * (A61 * k1b + A62 * k2b + A63 * k3b + A64 * k4b + A65 * k5b),
+        pm + h * (A61 * k1m + A62 * k2m + A63 * k3m + A64 * k4m + A65 * k5m),
+        x0,
+        ym - h,
+        sqb,
+        sqm,
+    )
+    nb = pb + h * (B1 * k1b + B3 * k3b + B4 * k4b + B5 * k5b + B6 * k6b)
+    nm = pm + h * (B1 * k1m + B3 * k3m + B4 * k4m + B5 * k5m + B6 * k6m)
+    k7b, k7m, _, _ = _velocity(table, act, nact, nb, nm, x0, ym - h, sqb, sqm)
+    eb = h * (E1 * k1b + E3 * k3b + E4 * k4b + E5 * k5b + E6 * k6b + E7 * k7b)
+    em = h * (E1 * k1m + E3 * k3m + E4 * k4m + E5 * k5m + E6 * k6m + E7 * k7m)
+    ok = math.isfinite(eb) and math.isfinite(em) and math.isfinite(nb) and math.isfinite(nm)
+    if ok:
+        nb, nm = _project(table, act, nact, nb, nm, x0, ym - h, winv_b, winv_m)
+    return nb, nm, eb, em, ok
+
+
+@njit(cache=True)
+def _event_value(
+    table: FloatArray,
+    kind: int,
+    idx: int,
+    slot: int,
+    thr: float,
+    act: IntArray,
+    nact: int,
+    pb: float,
+    pm: float,
+    x0: float,
+    ym: float,
+    sqb: float,
+    sqm: float,
+    y_floor: float,
+) -> float:
+    """Signed event function: positive before the event, <= 0 once it has happened."""
+    if kind == E_CONTACT:
+        g, _, _, _, _, _, _, _, _ = _eval(table, idx, pb, pm, x0, ym)
+        return g - thr
+    if kind == E_RELEASE:
+        _, _, l1, l2 = _velocity(table, act, nact, pb, pm, x0, ym, sqb, sqm)
+        return l1 if slot == 0 else l2
+    if kind == E_OFF_EDGE:
+        _, u, _, _, _, _, _, _, _ = _eval(table, idx, pb, pm, x0, ym)
+        return min(u, 1.0 - u)
+    if kind == E_BELOW_SEAT:
+        return ym - y_floor
+    # E_SPUN
+    return math.pi - max(abs(pb), abs(pm))
+
+
+@njit(cache=True)
+def _is_seated(pb: float, pm: float, x0: float, ym: float, L: float, tol: float) -> bool:
+    phi = 0.5 * (pb + pm)
+    return (
+        abs(pb - pm) <= tol
+        and abs(x0 + L * math.sin(phi)) <= tol * max(1.0, L)
+        and abs(ym - L * math.cos(phi)) <= tol * max(1.0, L)
+    )
+
+
+@njit(cache=True)
+def _segments_cross(
+    ax: float, ay: float, bx: float, by: float, cx: float, cy: float, dx: float, dy: float
+) -> bool:
+    d1 = (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
+    d2 = (bx - ax) * (dy - ay) - (by - ay) * (dx - ax)
+    d3 = (dx - cx) * (ay - cy) - (dy - cy) * (ax - cx)
+    d4 = (dx - cx) * (by - cy) - (dy - cy) * (bx - cx)
+    return d1 * d2 < 0.0 and d3 * d4 < 0.0
+
+
+@njit(cache=True)
+def _inside(px: float, py: float, edges: FloatArray, layer: float, rot: FloatArray) -> bool:
+    """Even-odd point-in-polygon test against the world edges of one layer."""
+    inside = False
+    for k in range(edges.shape[0]):
+        if edges[k, 4] != layer:
+            continue
+        x1, y1, x2, y2 = rot[k, 0], rot[k, 1], rot[k, 2], rot[k, 3]
+        if (y1 > py) != (y2 > py):
+            xc = x1 + (py - y1) * (x2 - x1) / (y2 - y1)
+            if px < xc:
+                inside = not inside
+    return inside
+
+
+@njit(cache=True)
+def _world_edges(
+    edges: FloatArray, moving: bool, pb: float, pm: float, x0: float, ym: float
+) -> FloatArray:
+    out = np.empty((edges.shape[0], 4))
+    if moving:
+        c, s = math.cos(pm), math.sin(pm)
+        for k in range(edges.shape[0]):
+            for j in range(2):
+                x, y = edges[k, 2 * j], edges[k, 2 * j + 1]
+                out[k, 2 * j] = x0 - (c * x - s * y)
+                out[k, 2 * j + 1] = ym - (s * x + c * y)
+    else:
+        c, s = math.cos(pb), math.sin(pb)
+        for k in range(edges.shape[0]):
+            for j in range(2):
+                x, y = edges[k, 2 * j], edges[k, 2 * j + 1]
+                out[k, 2 * j] = c * x - s * y
+                out[k, 2 * j + 1] = s * x + c * y
+    return out
+
+
+@njit(cache=True)
+def overlapping(
+    base_edges: FloatArray,
+    moving_edges: FloatArray,
+    pb: float,
+    pm: float,
+    x0: float,
+    ym: float,
+) -> bool:
+    """True when the parts interpenetrate in some layer (edges cross or a vertex is inside)."""
+    wb = _world_edges(base_edges, False, pb, pm, x0, ym)
+    wm = _world_edges(moving_edges, True, pb, pm, x0, ym)
+    for i in range(wb.shape[0]):
+        for j in range(wm.shape[0]):
+            if base_edges[i, 4] != moving_edges[j, 4]:
+                continue
+            if _segments_cross(
+                wb[i, 0], wb[i, 1], wb[i, 2], wb[i, 3], wm[j, 0], wm[j, 1], wm[j, 2], wm[j, 3]
+            ):
+                return True
+    for j in range(wm.shape[0]):
+        if _inside(wm[j, 0], wm[j, 1], base_edges, moving_edges[j, 4], wb):
+            return True
+    for i in range(wb.shape[0]):
+        if _inside(wb[i, 0], wb[i, 1], moving_edges, base_edges[i, 4], wm):
+            return True
+    return False
+
+
+@njit(cache=True)
+def _next_contact(ev: FloatArray, touch_tol: float) -> tuple[float, int]:
+    """Exact descent to the next contact under pure translation; (inf, -1) when none.
+
+    Along the approach the gap of every pair falls linearly: g(d) = g - beta d.
+    """
+    best = math.inf
+    best_i = -1
+    utol = 1e-12
+    for i in range(ev.shape[0]):
+        g, u, be = ev[i, 0], ev[i, 1], ev[i, 4]
+        if be <= 1e-14 or g <= touch_tol:
+            continue
+        d = g / be
+        if d >= best:
+            continue
+        # The edge parameter moves linearly too; recompute it at the hit.
+        # du/dd follows from the vertical motion of the vertex relative to the edge.
+        u_hit = u + d * ev[i, 5]
+        if -utol <= u_hit <= 1.0 + utol:
+            best = d
+            best_i = i
+    return best, best_i
+
+
+@njit(cache=True)
+def _fill_u_rate(table: FloatArray, pb: float, pm: float, ev: FloatArray) -> None:
+    """Column 5 of ev: du/dd of each pair under pure descent (vertex moves -y relative to
+    a base edge, +y relative to a moving edge)."""
+    cb, sb, cm, sm = math.cos(pb), math.sin(pb), math.cos(pm), math.sin(pm)
+    for i in range(table.shape[0]):
+        row = table[i]
+        if row[0] == 0.0:
+            dx = cb * (row[5] - row[3]) - sb * (row[6] - row[4])
+            dy = sb * (row[5] - row[3]) + cb * (row[6] - row[4])
+            sign = -1.0
+        else:
+            dx = -(cm * (row[5] - row[3]) - sm * (row[6] - row[4]))
+            dy = -(sm * (row[5] - row[3]) + cm * (row[6] - row[4]))
+            sign = 1.0
+        ev[i, 5] = sign * dy / (dx * dx + dy * dy)
+
+
+@njit(cache=True)
+def _record(
+    path: FloatArray,
+    pairs: IntArray,
+    n: int,
+    ym: float,
+    pb: float,
+    pm: float,
+    phase: int,
+    act: IntArray,
+    nact: int,
+) -> int:
+    if n >= path.shape[0]:
+        n = path.shape[0] - 1  # keep the last sample exact, drop the middle
+    path[n, 0] = ym
+    path[n, 1] = pb
+    path[n, 2] = pm
+    path[n, 3] = phase
+    for k in range(4):
+        pairs[n, k] = act[k] if k < nact else -1
+    return n + 1
+
+
+@njit(cache=True)
+def _touching(
+    ev: FloatArray, touch_tol: float, exclude: IntArray, n_ex: int, cand: IntArray
+) -> int:
+    utol = 1e-9
+    nc = 0
+    for i in range(ev.shape[0]):
+        if abs(ev[i, 0]) > touch_tol or ev[i, 1] < -utol or ev[i, 1] > 1.0 + utol:
+            continue
+        skip = False
+        for k in range(n_ex):
+            if exclude[k] == i:
+                skip = True
+        if skip or nc >= cand.shape[0]:
+            continue
+        cand[nc] = i
+        nc += 1
+    return nc
+
+
+@njit(cache=True)
+def simulate(
+    table: FloatArray,
+    base_edges: FloatArray,
+    moving_edges: FloatArray,
+    L: float,
+    x0: float,
+    theta0: float,
+    y_start: float,
+    settings: FloatArray,
+    path: FloatArray,
+    path_pairs: IntArray,
+) -> tuple[int, int, float, float, float, int, int, int, int, int]:
+    """Simulate one dock in units of D.
+
+    Returns ``(outcome, reason, phi_b, phi_m, y_m, steps, events, contact_changes,
+    rejected_steps, n_samples)``.  ``path`` (n, 4: y_m, phi_b, phi_m, phase) and
+    ``path_pairs`` (n, 4) receive the samples; pass (1, 4) arrays to skip recording
+    (only the final sample is then kept).
+    """
+    rtol = settings[S_RTOL]
+    atol = settings[S_ATOL]
+    event_tol = settings[S_EVENT_TOL]
+    touch_tol = settings[S_TOUCH_TOL]
+    seat_tol = settings[S_SEAT_TOL]
+    max_step = settings[S_MAX_STEP]
+    max_steps = int(settings[S_MAX_STEPS])
+    max_events = int(settings[S_MAX_EVENTS])
+    winv_b = settings[S_WINV_B]
+    winv_m = settings[S_WINV_M]
+    jam_speed = settings[S_JAM_SPEED]
+    sqb = math.sqrt(winv_b)
+    sqm = math.sqrt(winv_m)
+
+    pb = 0.0
+    pm = theta0
+    ym = y_start
+    steps = 0
+    events = 0
+    changes = 0
+    rejected = 0
+    n = 0
+    act = np.full(4, -1, dtype=np.int64)
+    nact = 0
+    no_act = np.full(4, -1, dtype=np.int64)
+
+    if not (
+        math.isfinite(x0) and math.isfinite(theta0) and math.isfinite(y_start) and math.isfinite(L)
+    ):
+        return O_INVALID, R_NONFINITE, pb, pm, ym, 0, 0, 0, 0, 0
+    if abs(x0) > L:
+        n = _record(path, path_pairs, n, ym, pb, pm, P_END, act, 0)
+        return O_OUT_OF_REACH, R_OUT_OF_REACH, pb, pm, ym, 0, 0, 0, 0, n
+    if overlapping(base_edges, moving_edges, pb, pm, x0, ym):
+        n = _record(path, path_pairs, n, ym, pb, pm, P_END, act, 0)
+        return O_INVALID, R_OVERLAP, pb, pm, ym, 0, 0, 0, 0, n
+
+    npairs = table.shape[0]
+    ev = np.empty((npairs, 6))
+    thr = np.zeros(npairs)
+    cand = np.empty(MAX_CAND, dtype=np.int64)
+    exclude = np.full(4, -1, dtype=np.int64)
+    n_ex = 0
+    y_floor = math.sqrt(L * L - x0 * x0) - seat_tol * max(1.0, L)
+    had_contact = False
+    n = _record(path, path_pairs, n, ym, pb, pm, P_APPROACH, act, 0)
+    h = settings[S_FIRST_STEP]
+
+    while True:
+        if events >= max_events:
+            n = _record(path, path_pairs, n, ym, pb, pm, P_END, act, nact)
+            return O_UNRESOLVED, R_EVENT_LIMIT, pb, pm, ym, steps, events, changes, rejected, n
+        # ---- start of an interval: which contacts act, and how do the parts move? ----------
+        _eval_all(table, pb, pm, x0, ym, ev)
+        nc = _touching(ev, touch_tol, exclude, n_ex, cand)
+        status, new_nact, vb, vm = _solve_qp(ev, cand, nc, sqb, sqm, 1e-9, act)
+        # A vertex sitting on the end of an edge and moving off it does not hold that edge.
+        for _ in range(4):
+            if status != 0 or new_nact == 0:
+                break
+            dropped = False
+            dd = 1e-7
+            for k in range(new_nact):
+                i = act[k]
+                if 1e-9 < ev[i, 1] < 1.0 - 1e-9:
+                    continue
+                _, u2, _, _, _, _, _, _, _ = _eval(
+                    table, i, pb + dd * vb, pm + dd * vm, x0, ym - dd
+                )
+                if u2 < 0.0 or u2 > 1.0:
+                    for m in range(nc):
+                        if cand[m] == i:
+                            cand[m] = cand[nc - 1]
+                            nc -= 1
+                            break
+                    dropped = True
+            if not dropped:
+                break
+            status, new_nact, vb, vm = _solve_qp(ev, cand, nc, sqb, sqm, 1e-9, act)
+        n_ex = 0
+        if status == 1:
+            # Blocked: no descent is possible any more.
+            n = _record(path, path_pairs, n, ym, pb, pm, P_END, act, 0)
+            if _is_seated(pb, pm, x0, ym, L, seat_tol):
+                return O_SEATED, R_SEATED, pb, pm, ym, steps, events, changes, rejected, n
+            return O_BAD_MATE, R_JAMMED, pb, pm, ym, steps, events, changes, rejected, n
+        if new_nact != nact:
+            changes += 1
+        nact = new_nact
+        if nact == 0:
+            # Free descent: translate exactly to the next contact.
+            _fill_u_rate(table, pb, pm, ev)
+            d, _ = _next_contact(ev, touch_tol)
+            if not math.isfinite(d):
+                n = _record(path, path_pairs, n, ym, pb, pm, P_END, act, 0)
+                if had_contact:
+                    return O_PASSED, R_PASSED, pb, pm, ym, steps, events, changes, rejected, n
+                return O_NO_CONTACT, R_NO_CONTACT, pb, pm, ym, steps, events, changes, rejected, n
+            if ym - d < y_floor:
+                ym = y_floor
+                n = _record(path, path_pairs, n, ym, pb, pm, P_END, act, 0)
+                return O_BAD_MATE, R_BELOW_SEAT, pb, pm, ym, steps, events, changes, rejected, n
+            ym -= d
+            events += 1
+            had_contact = True
+            n = _record(path, path_pairs, n, ym, pb, pm, P_APPROACH, act, 0)
+            continue
+        # ---- integrate with the active set fixed until the next event ----------------------
+        for i in range(npairs):
+            thr[i] = -touch_tol if abs(ev[i, 0]) <= touch_tol else 0.0
+        phase = P_SLIDE if abs(pb - pm) <= ALIGN_TOL else P_ALIGN
+        n = _record(path, path_pairs, n, ym, pb, pm, phase, act, nact)
+        while True:
+            if steps >= max_steps:
+                n = _record(path, path_pairs, n, ym, pb, pm, P_END, act, nact)
+                return O_UNRESOLVED, R_STEP_LIMIT, pb, pm, ym, steps, events, changes, rejected, n
+            h = min(h, max_step)
+            nb, nm, eb, em, ok = _rk_step(
+                table, act, nact, pb, pm, x0, ym, h, sqb, sqm, winv_b, winv_m
+            )
+            if ok:
+                sc_b = atol + rtol * max(abs(pb), abs(nb))
+                sc_m = atol + rtol * max(abs(pm), abs(nm))
+                err = max(abs(eb) / sc_b, abs(em) / sc_m)
+                speed = max(abs(nb - pb), abs(nm - pm)) / h
+                if speed > jam_speed:
+                    ok = False
+                    err = math.inf
+            else:
+                err = math.inf
+            if err > 1.0:
+                rejected += 1
+                if h <= event_tol:
+                    # The rate diverges: a contact normal runs through both pivots.
+                    n = _record(path, path_pairs, n, ym, pb, pm, P_END, act, nact)
+                    return O_BAD_MATE, R_SINGULAR, pb, pm, ym, steps, events, changes, rejected, n
+                h = max(h * max(0.2, 0.9 * err ** -0.2), 0.5 * event_tol) if ok else h * 0.25
+                continue
+            # ---- events in this step? ------------------------------------------------------
+            ev_kind = E_NONE
+            ev_idx = -1
+            ev_slot = 0
+            ev_h = h
+            ym1 = ym - h
+            # active contacts: release (lambda < 0) and leaving the edge
+            _, _, l1, l2 = _velocity(table, act, nact, nb, nm, x0, ym1, sqb, sqm)
+            for k in range(nact):
+                lam = l1 if k == 0 else l2
+                if lam < 0.0:
+                    hk = _locate(
+                        table, E_RELEASE, act[k], k, 0.0, act, nact, pb, pm, x0, ym, h,
+                        sqb, sqm, winv_b, winv_m, y_floor, event_tol,
+                    )
+                    if hk < ev_h or ev_kind == E_NONE:
+                        ev_kind, ev_idx, ev_slot, ev_h = E_RELEASE, act[k], k, hk
+                _, u, _, _, _, _, _, _, _ = _eval(table, act[k], nb, nm, x0, ym1)
+                if u < 0.0 or u > 1.0:
+                    hk = _locate(
+                        table, E_OFF_EDGE, act[k], k, 0.0, act, nact, pb, pm, x0, ym, h,
+                        sqb, sqm, winv_b, winv_m, y_floor, event_tol,
+                    )
+                    if hk < ev_h or ev_kind == E_NONE:
+                        ev_kind, ev_idx, ev_slot, ev_h = E_OFF_EDGE, act[k], k, hk
+            # inactive pairs: new contacts (the gap crosses its threshold inside the edge)
+            cb1, sb1, cm1, sm1 = math.cos(nb), math.sin(nb), math.cos(nm), math.sin(nm)
+            for i in range(npairs):
+                if (nact > 0 and act[0] == i) or (nact > 1 and act[1] == i):
+                    continue
+                g1, u1, _, _, _, _, _, _, _ = eval_pair(table[i], cb1, sb1, cm1, sm1, x0, ym1)
+                if g1 > thr[i] or ev[i, 0] <= thr[i]:
+                    continue
+                if (u1 < -0.5 and ev[i, 1] < -0.5) or (u1 > 1.5 and ev[i, 1] > 1.5):
+                    continue
+                hk = _locate(
+                    table, E_CONTACT, i, 0, thr[i], act, nact, pb, pm, x0, ym, h,
+                    sqb, sqm, winv_b, winv_m, y_floor, event_tol,
+                )
+                if ev_kind != E_NONE and hk >= ev_h:
+                    continue
+                pbk, pmk, _, _, _ = _rk_step(
+                    table, act, nact, pb, pm, x0, ym, hk, sqb, sqm, winv_b, winv_m
+                )
+                _, uk, _, _, _, _, _, _, _ = _eval(table, i, pbk, pmk, x0, ym - hk)
+                if -1e-9 <= uk <= 1.0 + 1e-9:
+                    ev_kind, ev_idx, ev_slot, ev_h = E_CONTACT, i, 0, hk
+            if ym1 < y_floor:
+                hk = _locate(
+                    table, E_BELOW_SEAT, -1, 0, 0.0, act, nact, pb, pm, x0, ym, h,
+                    sqb, sqm, winv_b, winv_m, y_floor, event_tol,
+                )
+                if hk < ev_h or ev_kind == E_NONE:
+                    ev_kind, ev_idx, ev_slot, ev_h = E_BELOW_SEAT, -1, 0, hk
+            if max(abs(nb), abs(nm)) > math.pi:
+                hk = _locate(
+                    table, E_SPUN, -1, 0, 0.0, act, nact, pb, pm, x0, ym, h,
+                    sqb, sqm, winv_b, winv_m, y_floor, event_tol,
+                )
+                if hk < ev_h or ev_kind == E_NONE:
+                    ev_kind, ev_idx, ev_slot, ev_h = E_SPUN, -1, 0, hk
+            if ev_kind == E_NONE:
+                steps += 1
+                pb, pm, ym = nb, nm, ym1
+                phase = P_SLIDE if abs(pb - pm) <= ALIGN_TOL else P_ALIGN
+                n = _record(path, path_pairs, n, ym, pb, pm, phase, act, nact)
+                fac = 5.0 if err == 0.0 else min(5.0, max(0.2, 0.9 * err ** -0.2))
+                h = h * fac
+                continue
+            # ---- advance to the event and act on it ------------------------------------------
+            if ev_h > 0.0:
+                pb, pm, _, _, _ = _rk_step(
+                    table, act, nact, pb, pm, x0, ym, ev_h, sqb, sqm, winv_b, winv_m
+                )
+                ym = ym - ev_h
+                steps += 1
+            events += 1
+            phase = P_SLIDE if abs(pb - pm) <= ALIGN_TOL else P_ALIGN
+            n = _record(path, path_pairs, n, ym, pb, pm, phase, act, nact)
+            if ev_kind == E_BELOW_SEAT:
+                n = _record(path, path_pairs, n, ym, pb, pm, P_END, no_act, 0)
+                return O_BAD_MATE, R_BELOW_SEAT, pb, pm, ym, steps, events, changes, rejected, n
+            if ev_kind == E_SPUN:
+                n = _record(path, path_pairs, n, ym, pb, pm, P_END, no_act, 0)
+                return O_BAD_MATE, R_SPUN, pb, pm, ym, steps, events, changes, rejected, n
+            if ev_kind == E_RELEASE or ev_kind == E_OFF_EDGE:
+                exclude[0] = ev_idx
+                n_ex = 1
+            h = max(h, 1e3 * event_tol)
+            break
+
+
+@njit(cache=True)
+def _locate(
+    table: FloatArray,
+    kind: int,
+    idx: int,
+    slot: int,
+    thr: float,
+    act: IntArray,
+    nact: int,
+    pb: float,
+    pm: float,
+    x0: float,
+    ym: float,
+    h: float,
+    sqb: float,
+    sqm: float,
+    winv_b: float,
+    winv_m: float,
+    y_floor: float,
+    event_tol: float,
+) -> float:
+    """Step length at which an event function reaches zero (Illinois method).
+
+    The event function is evaluated on the state after one integration step of the trial
+    length from the same start, so the located point lies on the integrated path.  The
+    returned length is the last one at which the event had not yet happened plus at most
+    ``event_tol``, i.e. the event point approached from the inside.
+    """
+    lo = 0.0
+    f_lo = _event_value(table, kind, idx, slot, thr, act, nact, pb, pm, x0, ym, sqb, sqm, y_floor)
+    hi = h
+    nb, nm, _, _, _ = _rk_step(table, act, nact, pb, pm, x0, ym, hi, sqb, sqm, winv_b, winv_m)
+    f_hi = _event_value(table, kind, idx, slot, thr, act, nact, nb, nm, x0, ym - hi, sqb, sqm, y_floor)
+    if not f_lo > 0.0:
+        return 0.0
+    side = 0
+    for _ in range(100):
+        if hi - lo <= event_tol:
+            break
+        if math.isfinite(f_hi) and f_hi < 0.0 and f_lo > 0.0:
+            mid = hi - f_hi * (hi - lo) / (f_hi - f_lo)
+            if not (lo < mid < hi):
+                mid = 0.5 * (lo + hi)
+        else:
+            mid = 0.5 * (lo + hi)
+        nb, nm, _, _, _ = _rk_step(table, act, nact, pb, pm, x0, ym, mid, sqb, sqm, winv_b, winv_m)
+        f_mid = _event_value(
+            table, kind, idx, slot, thr, act, nact, nb, nm, x0, ym - mid, sqb, sqm, y_floor
+        )
+        if math.isfinite(f_mid) and f_mid > 0.0:
+            lo, f_lo = mid, f_mid
+            if side == 1:
+                f_hi *= 0.5
+            side = 1
+        else:
+            hi, f_hi = mid, f_mid
+            if side == -1:
+                f_lo *= 0.5
+            side = -1
+    return hi
+
+
+@njit(cache=True)
+def simulate_many(
+    table: FloatArray,
+    base_edges: FloatArray,
+    moving_edges: FloatArray,
+    L: float,
+    xs: FloatArray,
+    ts: FloatArray,
+    ys: FloatArray,
+    valid: npt.NDArray[np.bool_],
+    settings: FloatArray,
+) -> tuple[npt.NDArray[np.int8], FloatArray, FloatArray, IntArray, IntArray]:
+    """:func:`simulate` over flat arrays of poses without paths; invalid entries give
+    INVALID_INPUT without running."""
+    n = xs.shape[0]
+    code = np.empty(n, dtype=np.int8)
+    pbs = np.full(n, math.nan)
+    pms = np.full(n, math.nan)
+    steps = np.zeros(n, dtype=np.int64)
+    events = np.zeros(n, dtype=np.int64)
+    path = np.zeros((1, 4))
+    pairs = np.full((1, 4), -1, dtype=np.int64)
+    for k in range(n):
+        if not valid[k]:
+            code[k] = O_INVALID
+            continue
+        out = simulate(
+            table, base_edges, moving_edges, L, xs[k], ts[k], ys[k], settings, path, pairs
+        )
+        code[k] = out[0]
+        pbs[k] = out[2]
+        pms[k] = out[3]
+        steps[k] = out[5]
+        events[k] = out[6]
+    return code, pbs, pms, steps, events
