@@ -1,0 +1,120 @@
+"""Suite-wide set-up: ROS isolation, markers, Hypothesis profiles.
+
+Importing this file (pytest does it before collecting anything) puts every process the tests
+start on loopback: DDS discovery limited to this host, no static peers, and a ROS domain id
+of this run's own unless the caller chose one. Tests that start rclpy take the
+:func:`ros_domain_id` fixture on top, which gives each of them a domain of its own.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import itertools
+import os
+from collections.abc import Iterator
+from pathlib import Path
+
+import hypothesis
+import pytest
+
+#: Domain ids handed to single tests; the run-level default lies in 1..99 (see the Makefile).
+TEST_DOMAIN_IDS = range(100, 200)
+
+# Before any test module (and so any rclpy) is imported: these are read when a ROS context
+# is created, in this process and in every subprocess that inherits the environment.
+os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+os.environ["ROS_STATIC_PEERS"] = ""
+if not os.environ.get("ROS_DOMAIN_ID"):
+    os.environ["ROS_DOMAIN_ID"] = str(os.getpid() % 99 + 1)
+
+# Hypothesis: no deadline (wall time on a shared machine says nothing about correctness, and
+# the first call of a numba kernel compiles it); in CI the examples are derandomised so a
+# failure reproduces from the log.
+hypothesis.settings.register_profile("dev", deadline=None, print_blob=True)
+hypothesis.settings.register_profile(
+    "ci", deadline=None, print_blob=True, derandomize=True, database=None
+)
+hypothesis.settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "dev"))
+
+_TESTS_DIR = Path(__file__).resolve().parent
+_ROS_TESTS_DIR = _TESTS_DIR / "ros"
+_RCLPY_AVAILABLE = importlib.util.find_spec("rclpy") is not None
+_ROS_REQUIRED = os.environ.get("XFACE_REQUIRE_ROS", "0") == "1"
+
+# Without rclpy the ROS tests cannot even be imported: leave them out of collection (unless
+# the run installed the ROS extra and so promised rclpy; then pytest_configure fails loudly).
+collect_ignore_glob = [] if _RCLPY_AVAILABLE else ["ros/*"]
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    config.addinivalue_line(
+        "markers",
+        "slow: a heavy stress test (seconds to minutes); still part of `make test` and CI, "
+        "deselect locally with -m 'not slow'",
+    )
+    config.addinivalue_line(
+        "markers",
+        "ros: needs rclpy and the ROS message packages (every test under tests/ros gets it)",
+    )
+    if _ROS_REQUIRED and not _RCLPY_AVAILABLE:
+        raise pytest.UsageError(
+            "XFACE_REQUIRE_ROS=1 but rclpy is not importable: install the extra with "
+            "`pip install -e '.[ros,test]'` (or run `make test`, which does)"
+        )
+
+
+def pytest_report_header(config: pytest.Config) -> list[str]:
+    ros = "rclpy available" if _RCLPY_AVAILABLE else "rclpy NOT available: tests/ros skipped"
+    domain = os.environ["ROS_DOMAIN_ID"]
+    discovery = os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"]
+    profile = hypothesis.settings.get_current_profile_name()
+    return [
+        f"xface: {ros}; hypothesis profile {profile}",
+        f"xface: ROS_DOMAIN_ID={domain} (tests 100-199), ROS_AUTOMATIC_DISCOVERY_RANGE={discovery}",
+    ]
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    for item in items:
+        if _ROS_TESTS_DIR in item.path.parents:
+            item.add_marker(pytest.mark.ros)
+
+
+class DomainIdAllocator:
+    """Hands out ROS domain ids from ``ids`` in turn, starting at an offset of this run's.
+
+    Consecutive tests get distinct ids; the start depends on the process id so that two runs
+    on one machine rarely walk the same sequence at the same time.
+
+    >>> allocator = DomainIdAllocator(range(100, 103), start=1)
+    >>> [allocator.allocate() for _ in range(4)]
+    [101, 102, 100, 101]
+    """
+
+    def __init__(self, ids: range, *, start: int) -> None:
+        if len(ids) == 0:
+            raise ValueError("ids must not be empty")
+        self._ids: Iterator[int] = itertools.islice(itertools.cycle(ids), start % len(ids), None)
+
+    def allocate(self) -> int:
+        """The next domain id."""
+        return next(self._ids)
+
+
+@pytest.fixture(scope="session")
+def ros_domain_allocator() -> DomainIdAllocator:
+    """The allocator behind :func:`ros_domain_id`, one per test session."""
+    return DomainIdAllocator(TEST_DOMAIN_IDS, start=os.getpid())
+
+
+@pytest.fixture
+def ros_domain_id(ros_domain_allocator: DomainIdAllocator, monkeypatch: pytest.MonkeyPatch) -> int:
+    """A ROS domain id (100..199) for this test alone, also set as ``ROS_DOMAIN_ID``.
+
+    Pass it to ``rclpy.init(domain_id=...)`` or rely on the environment variable, which
+    subprocesses started by the test inherit; the variable is restored after the test.
+    """
+    domain_id = ros_domain_allocator.allocate()
+    monkeypatch.setenv("ROS_DOMAIN_ID", str(domain_id))
+    monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    return domain_id
