@@ -13,7 +13,7 @@ SHELL := /bin/bash
 
 # Prefer python3.11: the ROS 2 Jazzy wheels on PyPI are built for it.
 PYTHON ?= $(shell command -v python3.11 || command -v python3)
-VENV := .venv
+VENV ?= .venv
 BIN := $(VENV)/bin
 # Which extras `make` installs; EXTRAS=test skips the ROS wheels (tests/ros is then skipped).
 EXTRAS ?= ros,test
