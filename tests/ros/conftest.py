@@ -1,0 +1,403 @@
+"""Fixtures for the node tests: the node as a separate process, and a test-side ROS client.
+
+Every node runs as ``python -m xface_ros --ros-args --params-file <file>`` in its own ROS
+domain (100..199, from the suite's allocator in tests/conftest.py) with discovery on this
+host only; the client joins the same domain in-process with its own rclpy context.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+import warnings
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Generic, TypeVar
+
+import pytest
+import rclpy
+import yaml
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+from geometry_msgs.msg import PoseStamped
+from nav_msgs.msg import Path as PathMsg
+from nav_msgs.srv import GetPlan
+from rcl_interfaces.msg import Parameter as ParameterMsg
+from rclpy.context import Context
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from rclpy.parameter_client import AsyncParameterClient
+from rclpy.qos import (
+    DurabilityPolicy,
+    QoSProfile,
+    ReliabilityPolicy,
+)
+from rclpy.signals import SignalHandlerOptions
+from std_msgs.msg import Bool
+from visualization_msgs.msg import MarkerArray
+
+from xface_core.frames import yaw_to_quaternion
+
+ROOT = Path(__file__).resolve().parents[2]
+DEFAULT_PARAMS_FILE = ROOT / "config" / "xface.yaml"
+NODE_NAME = "xface_predictor"
+BASE_FRAME = "xface_base"
+
+#: Generous: a cold start loads rclpy, Fast DDS and the compiled simulator on a shared machine.
+STARTUP_TIMEOUT_S = 120.0
+REPLY_TIMEOUT_S = 60.0
+
+M = TypeVar("M")
+
+# Loading message type support imports rosidl_generator_py, which imports lark, which imports
+# the stdlib's deprecated sre_parse and sre_constants; the suite turns DeprecationWarning into errors. Import it
+# once here with that one warning silenced (not ours to fix; later imports hit the cache).
+with warnings.catch_warnings():
+    warnings.filterwarnings(
+        "ignore",
+        message=r"module .sre_(parse|constants). is deprecated",
+        category=DeprecationWarning,
+    )
+    import rosidl_generator_py  # noqa: F401
+
+
+def write_params(path: Path, **overrides: Any) -> Path:
+    """A params file: config/xface.yaml with ``overrides`` applied."""
+    data = yaml.safe_load(DEFAULT_PARAMS_FILE.read_text(encoding="utf-8"))
+    data[NODE_NAME]["ros__parameters"].update(overrides)
+    path.write_text(yaml.safe_dump(data), encoding="utf-8")
+    return path
+
+
+def ros_env(domain_id: int) -> dict[str, str]:
+    env = dict(os.environ)
+    env["ROS_DOMAIN_ID"] = str(domain_id)
+    env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+    env["ROS_STATIC_PEERS"] = ""
+    env["PYTHONUNBUFFERED"] = "1"
+    return env
+
+
+@dataclass
+class NodeProcess:
+    """The node under test, started as a separate process."""
+
+    process: subprocess.Popen[str]
+    log_path: Path
+
+    @property
+    def pid(self) -> int:
+        return self.process.pid
+
+    def log(self) -> str:
+        return self.log_path.read_text(encoding="utf-8", errors="replace")
+
+    def stop(self, sig: int = signal.SIGINT, timeout_s: float = 60.0) -> int:
+        """Send ``sig`` and return the exit code (kills and fails after ``timeout_s``)."""
+        if self.process.poll() is None:
+            self.process.send_signal(sig)
+        try:
+            return self.process.wait(timeout=timeout_s)
+        except subprocess.TimeoutExpired:
+            self.process.kill()
+            self.process.wait()
+            pytest.fail(f"node did not exit {timeout_s:g} s after signal {sig}:\n{self.log()}")
+
+    def wait_exit(self, timeout_s: float) -> int:
+        return self.process.wait(timeout=timeout_s)
+
+    def rss_kib(self) -> int:
+        """Resident set size of the node process (KiB), from /proc."""
+        return rss_kib(self.pid)
+
+
+def start_node_process(
+    domain_id: int, params_file: Path, log_path: Path, extra_args: list[str] | None = None
+) -> NodeProcess:
+    command = [
+        sys.executable, "-m", "xface_ros", "--ros-args", "--params-file", str(params_file),
+        *(extra_args or []),
+    ]  # fmt: skip
+    log = log_path.open("w", encoding="utf-8")
+    process = subprocess.Popen(
+        command, cwd=log_path.parent, env=ros_env(domain_id), stdout=log,
+        stderr=subprocess.STDOUT, text=True,
+    )  # fmt: skip
+    log.close()
+    return NodeProcess(process, log_path)
+
+
+@dataclass
+class Inbox(Generic[M]):
+    """Messages received on one topic, in arrival order, with a condition to wait on."""
+
+    messages: list[M] = field(default_factory=list)
+    cond: threading.Condition = field(default_factory=threading.Condition)
+
+    def add(self, msg: M) -> None:
+        with self.cond:
+            self.messages.append(msg)
+            self.cond.notify_all()
+
+    def wait_for(self, predicate: Callable[[M], bool], timeout_s: float = REPLY_TIMEOUT_S) -> M:
+        """The first message (already received or arriving) that satisfies ``predicate``."""
+        deadline = time.monotonic() + timeout_s
+        with self.cond:
+            checked = 0
+            while True:
+                for msg in self.messages[checked:]:
+                    if predicate(msg):
+                        return msg
+                checked = len(self.messages)
+                remaining = deadline - time.monotonic()
+                if remaining <= 0:
+                    raise TimeoutError(f"no matching message within {timeout_s:g} s")
+                self.cond.wait(timeout=remaining)
+
+    def count(self) -> int:
+        with self.cond:
+            return len(self.messages)
+
+    def snapshot(self) -> list[M]:
+        with self.cond:
+            return list(self.messages)
+
+
+def status_values(status: DiagnosticStatus) -> dict[str, str]:
+    return {kv.key: kv.value for kv in status.values}
+
+
+def stamp_ns(msg_stamp: Any) -> int:
+    return int(msg_stamp.sec) * 1_000_000_000 + int(msg_stamp.nanosec)
+
+
+class RosClient:
+    """A test-side node: publishes poses, subscribes to every output, calls the service."""
+
+    values = staticmethod(status_values)
+    stamp_ns = staticmethod(stamp_ns)
+
+    def __init__(self, domain_id: int) -> None:
+        self.context = Context()
+        rclpy.init(
+            context=self.context, domain_id=domain_id,
+            signal_handler_options=SignalHandlerOptions.NO,
+        )  # fmt: skip
+        self.node = Node("xface_test_client", context=self.context)
+        self.executor = SingleThreadedExecutor(context=self.context)
+        self.executor.add_node(self.node)
+        latched = QoSProfile(
+            depth=1,
+            reliability=ReliabilityPolicy.RELIABLE,
+            durability=DurabilityPolicy.TRANSIENT_LOCAL,
+        )
+        self.pose_pub = self.node.create_publisher(PoseStamped, "relative_pose", 10)
+        self.accepted: Inbox[Bool] = self._inbox(Bool, "prediction/accepted", 100)
+        self.status: Inbox[DiagnosticStatus] = self._inbox(
+            DiagnosticStatus, "prediction/status", 100
+        )
+        self.path: Inbox[PathMsg] = self._inbox(PathMsg, "prediction/path", 10)
+        self.seated: Inbox[PoseStamped] = self._inbox(
+            PoseStamped, "prediction/seated_pose", latched
+        )
+        self.markers: Inbox[MarkerArray] | None = None
+        self.diagnostics: Inbox[DiagnosticArray] = self._inbox(DiagnosticArray, "/diagnostics", 10)
+        self.plan_client = self.node.create_client(GetPlan, "predict")
+        self.param_client = AsyncParameterClient(self.node, NODE_NAME)
+        self._stamp_ns = 0
+        self._thread = threading.Thread(target=self._spin, daemon=True)
+        self._thread.start()
+
+    def _spin(self) -> None:
+        # close() shuts the context down under the executor.
+        with contextlib.suppress(ExternalShutdownException):
+            self.executor.spin()
+
+    def _inbox(self, msg_type: Any, topic: str, qos: Any) -> Inbox[Any]:
+        inbox: Inbox[Any] = Inbox()
+        self.node.create_subscription(msg_type, topic, inbox.add, qos)
+        return inbox
+
+    def subscribe_markers(self) -> Inbox[MarkerArray]:
+        self.markers = self._inbox(MarkerArray, "prediction/markers", 10)
+        return self.markers
+
+    def wait_for_node(self, node: NodeProcess, timeout_s: float = STARTUP_TIMEOUT_S) -> None:
+        """Wait until the node's service answers and it subscribes to our pose topic."""
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline:
+            if node.process.poll() is not None:
+                pytest.fail(f"node exited with {node.process.returncode}:\n{node.log()}")
+            if self.plan_client.service_is_ready() and self.pose_pub.get_subscription_count() > 0:
+                return
+            time.sleep(0.1)
+        pytest.fail(f"node not ready within {timeout_s:g} s:\n{node.log()}")
+
+    def next_stamp_ns(self) -> int:
+        """A fresh stamp (node clock = wall clock on this host), strictly increasing."""
+        self._stamp_ns = max(self._stamp_ns + 1, time.time_ns())
+        return self._stamp_ns
+
+    def pose_msg(
+        self,
+        x: float,
+        y: float,
+        yaw: float,
+        *,
+        frame_id: str = BASE_FRAME,
+        stamp_ns: int | None = None,
+        quaternion: tuple[float, float, float, float] | None = None,
+    ) -> PoseStamped:
+        msg = PoseStamped()
+        msg.header.frame_id = frame_id
+        ns = self.next_stamp_ns() if stamp_ns is None else stamp_ns
+        msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(ns, 1_000_000_000)
+        msg.pose.position.x, msg.pose.position.y = x, y
+        qx, qy, qz, qw = yaw_to_quaternion(yaw) if quaternion is None else quaternion
+        o = msg.pose.orientation
+        o.x, o.y, o.z, o.w = qx, qy, qz, qw
+        return msg
+
+    def publish_until_status(
+        self,
+        make_msg: Callable[[], PoseStamped],
+        *,
+        also: Callable[[int], bool] = lambda stamp: True,
+        timeout_s: float = REPLY_TIMEOUT_S,
+    ) -> tuple[PoseStamped, DiagnosticStatus]:
+        """Publish fresh copies of a pose until a status for one of them arrives.
+
+        Poses go out on a best-effort topic and the node may not have matched every output
+        subscription yet, so one publish is not enough. ``also(stamp_ns)`` may wait for more
+        outputs of the same stamp (path, seated pose) before the status counts.
+        """
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline:
+            msg = make_msg()
+            sent_ns = stamp_ns(msg.header.stamp)
+            self.pose_pub.publish(msg)
+            try:
+                status = self.status.wait_for(
+                    lambda s, ns=sent_ns: status_values(s).get("input_stamp_ns") == str(ns), 2.0
+                )
+            except TimeoutError:
+                continue
+            if also(sent_ns):
+                return msg, status
+        raise TimeoutError(f"no status for the pose within {timeout_s:g} s")
+
+    def wait_path(self, sent_ns: int, timeout_s: float = 2.0) -> PathMsg | None:
+        try:
+            return self.path.wait_for(lambda p: stamp_ns(p.header.stamp) == sent_ns, timeout_s)
+        except TimeoutError:
+            return None
+
+    def call_plan(
+        self, start: PoseStamped, tolerance: float = 0.0, timeout_s: float = REPLY_TIMEOUT_S
+    ) -> PathMsg:
+        request = GetPlan.Request(start=start, tolerance=tolerance)
+        future = self.plan_client.call_async(request)
+        return _result(future, timeout_s).plan
+
+    def set_parameters(self, **values: Any) -> list[Any]:
+        """SetParameters on the node; the list of SetParametersResult (one per parameter)."""
+        assert self.param_client.wait_for_services(timeout_sec=REPLY_TIMEOUT_S)
+        params = [Parameter(name, value=value) for name, value in values.items()]
+        future = self.param_client.set_parameters(params)
+        return list(_result(future, REPLY_TIMEOUT_S).results)
+
+    def get_parameter(self, name: str) -> Any:
+        future = self.param_client.get_parameters([name])
+        value = _result(future, REPLY_TIMEOUT_S).values[0]
+        return Parameter.from_parameter_msg(ParameterMsg(name=name, value=value)).value
+
+    def close(self) -> None:
+        self.executor.shutdown(timeout_sec=5.0)
+        self.node.destroy_node()
+        rclpy.try_shutdown(context=self.context)
+        self._thread.join(timeout=5.0)
+
+
+def _result(future: Any, timeout_s: float) -> Any:
+    deadline = time.monotonic() + timeout_s
+    while not future.done():
+        if time.monotonic() > deadline:
+            raise TimeoutError(f"no reply within {timeout_s:g} s")
+        time.sleep(0.01)
+    return future.result()
+
+
+def rss_kib(pid: int) -> int:
+    """Resident set size of a process (KiB), from /proc."""
+    for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+        if line.startswith("VmRSS:"):
+            return int(line.split()[1])
+    raise RuntimeError(f"no VmRSS for pid {pid}")
+
+
+# --- fixtures ---------------------------------------------------------------------------------
+
+
+@dataclass
+class Running:
+    """A started node and a connected client in the same domain."""
+
+    node: NodeProcess
+    client: RosClient
+    domain_id: int
+    params_file: Path
+
+
+@pytest.fixture
+def launch(ros_domain_id: int, tmp_path: Path) -> Iterator[Callable[..., Running]]:
+    """Start the node with parameter overrides (in a params file) and connect a client.
+
+    Everything started is stopped at teardown; a node that is still running then must exit
+    with code 0 on SIGINT.
+    """
+    started: list[Running] = []
+
+    def _launch(
+        *, wait: bool = True, extra_args: list[str] | None = None, **overrides: Any
+    ) -> Running:
+        n = len(started)
+        params = write_params(tmp_path / f"params{n}.yaml", **overrides)
+        node = start_node_process(ros_domain_id, params, tmp_path / f"node{n}.log", extra_args)
+        client = RosClient(ros_domain_id)
+        running = Running(node, client, ros_domain_id, params)
+        started.append(running)
+        if wait:
+            client.wait_for_node(node)
+        return running
+
+    yield _launch
+    for running in started:
+        running.client.close()
+        if running.node.process.poll() is None:
+            code = running.node.stop(signal.SIGINT)
+            assert code == 0, running.node.log()
+
+
+@pytest.fixture(scope="module")
+def shared_node(
+    ros_domain_allocator: Any, tmp_path_factory: pytest.TempPathFactory
+) -> Iterator[Running]:
+    """One node on the default config (plus a path subscriber) for read-only tests."""
+    domain_id = ros_domain_allocator.allocate()
+    tmp = tmp_path_factory.mktemp("shared_node")
+    params = write_params(tmp / "params.yaml")
+    node = start_node_process(domain_id, params, tmp / "node.log")
+    client = RosClient(domain_id)
+    try:
+        client.wait_for_node(node)
+        yield Running(node, client, domain_id, params)
+    finally:
+        client.close()
+        code = node.stop(signal.SIGINT)
+        assert code == 0, node.log()
