@@ -56,8 +56,9 @@ REPLY_TIMEOUT_S = 60.0
 M = TypeVar("M")
 
 # Loading message type support imports rosidl_generator_py, which imports lark, which imports
-# the stdlib's deprecated sre_parse and sre_constants; the suite turns DeprecationWarning into errors. Import it
-# once here with that one warning silenced (not ours to fix; later imports hit the cache).
+# the stdlib's deprecated sre_parse and sre_constants, and the suite turns DeprecationWarning
+# into errors. Import it once here with just that warning silenced (not ours to fix; later
+# imports hit the module cache).
 with warnings.catch_warnings():
     warnings.filterwarnings(
         "ignore",
