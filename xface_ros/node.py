@@ -522,9 +522,17 @@ class XfacePredictor(Node):
                 rec.flush(timeout_sec=10.0)
                 rec.disconnect()
             except Exception as exc:  # report, but never turn a clean shutdown into a crash
-                self.get_logger().error(f"could not finish the recording: {exc!r}")
+                self._say_at_shutdown(f"could not finish the recording: {exc!r}", error=True)
             else:
-                self.get_logger().info(f"recording finished: {self._recording_path}")
+                self._say_at_shutdown(f"recording finished: {self._recording_path}")
+
+    def _say_at_shutdown(self, text: str, *, error: bool = False) -> None:
+        """Log, or print once the context is gone (rosout is closed by then)."""
+        if self.context.ok():
+            logger = self.get_logger()
+            (logger.error if error else logger.info)(text)
+        else:
+            print(f"[{self.get_name()}] {text}", file=sys.stderr, flush=True)
 
     def destroy_node(self) -> None:
         self.close()

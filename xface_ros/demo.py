@@ -1,0 +1,201 @@
+"""The README's first command: the node on its default configuration, fed by a pose source.
+
+``python -m xface_ros.demo`` (or ``make demo``)
+
+1. starts ``xface_predictor`` as a separate process (``python -m xface_ros`` with
+   config/xface.yaml when this is a source checkout, the built-in defaults otherwise) with a
+   rerun recording switched on when :mod:`xface_core.recording` is available;
+2. runs the bundled :class:`~xface_ros.pose_source.PoseSource` (a sweep of poses, some of
+   which seat and some not) and prints every prediction as it arrives;
+3. after ``--duration`` seconds (default 15) or on Ctrl-C, stops the node with SIGINT (which
+   finishes the recording) and exits 0 when the node exited cleanly and predictions arrived.
+
+DDS discovery stays on this host (``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST``) in a ROS domain
+of its own: ``ROS_DOMAIN_ID`` when set (``make demo`` sets one), else ``--domain-id``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib.util
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from collections import Counter
+from pathlib import Path
+from types import FrameType
+
+__all__ = ["main"]
+
+#: Default ROS domain of the demo when the environment sets none (tests use 100..199).
+DEFAULT_DOMAIN_ID = 42
+REPO_PARAMS = Path(__file__).resolve().parents[1] / "config" / "xface.yaml"
+
+
+def _isolate_ros(domain_id: int) -> None:
+    """Keep DDS on loopback, in one domain; inherited by the node process."""
+    os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+    os.environ["ROS_STATIC_PEERS"] = ""
+    os.environ.setdefault("ROS_DOMAIN_ID", str(domain_id))
+
+
+def _parse(argv: list[str] | None) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(
+        prog="python -m xface_ros.demo", description=__doc__.split("\n")[0]
+    )
+    parser.add_argument("--duration", type=float, default=15.0, help="seconds to run (default 15)")
+    parser.add_argument("--rate", type=float, default=2.0, help="poses per second (default 2)")
+    parser.add_argument(
+        "--record", type=Path, default=Path("xface-demo.rrd"),
+        help="where the .rrd recording goes (default ./xface-demo.rrd)",
+    )  # fmt: skip
+    parser.add_argument("--no-record", action="store_true", help="do not write a recording")
+    parser.add_argument(
+        "--params-file", type=Path, default=REPO_PARAMS if REPO_PARAMS.is_file() else None,
+        help="node parameters (default config/xface.yaml of the checkout, if there is one)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--domain-id", type=int, default=DEFAULT_DOMAIN_ID,
+        help=f"ROS domain when ROS_DOMAIN_ID is unset (default {DEFAULT_DOMAIN_ID})",
+    )  # fmt: skip
+    return parser.parse_args(argv)
+
+
+def _node_command(args: argparse.Namespace, record_path: Path | None) -> list[str]:
+    command = [sys.executable, "-m", "xface_ros", "--ros-args"]
+    if args.params_file is not None:
+        command += ["--params-file", str(args.params_file)]
+    if record_path is not None:
+        command += ["-p", "record:=true", "-p", f"record_path:={record_path}"]
+    return command
+
+
+def _raise_keyboard_interrupt(signum: int, frame: FrameType | None) -> None:
+    raise KeyboardInterrupt
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the demo; 0 when predictions arrived and the node shut down cleanly."""
+    args = _parse(argv)
+    _isolate_ros(args.domain_id)
+    # Imported here, after the environment is set (rclpy reads it when a context starts).
+    import rclpy
+    from diagnostic_msgs.msg import DiagnosticStatus
+    from nav_msgs.srv import GetPlan
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.parameter import Parameter
+    from rclpy.signals import SignalHandlerOptions
+
+    from xface_ros.node import RESULT_QOS
+    from xface_ros.pose_source import PoseSource
+
+    recording_available = importlib.util.find_spec("xface_core.recording") is not None
+    record_path = None if args.no_record or not recording_available else args.record.resolve()
+    if record_path is not None and record_path.exists():
+        record_path.unlink()  # a stale file from an earlier run would look like this run's
+    print(
+        f"xface demo: ROS_DOMAIN_ID={os.environ['ROS_DOMAIN_ID']}, discovery on localhost only; "
+        f"running {args.duration:g} s (Ctrl-C stops earlier)",
+        flush=True,
+    )
+    node = subprocess.Popen(_node_command(args, record_path), start_new_session=True)
+    # SIGTERM stops the demo like Ctrl-C; the node gets exactly one SIGINT from us either way.
+    signal.signal(signal.SIGTERM, _raise_keyboard_interrupt)
+
+    rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
+    executor = SingleThreadedExecutor()
+    counts: Counter[str] = Counter()
+    accepted = Counter[bool]()
+    started = time.monotonic()
+    lock = threading.Lock()
+
+    def show(status: DiagnosticStatus) -> None:
+        values = {kv.key: kv.value for kv in status.values}
+        outcome = values.get("outcome", "?")
+        is_accepted = values.get("accepted") == "true"
+        t = time.monotonic() - started
+        with lock:
+            counts[outcome] += 1
+            if "input_error" not in values:
+                accepted[is_accepted] += 1
+        if "input_error" in values:
+            print(f"[{t:5.1f} s] input rejected: {status.message}", flush=True)
+            return
+        margin = values.get("margin_m", "")
+        extra = f"margin {float(margin):.4f} m" if margin not in ("", None) else ""
+        verdict = "accepted" if is_accepted else "rejected"
+        x0, theta0 = float(values["x0_m"]), float(values["theta0_rad"])
+        compute_ms = float(values["compute_time_ms"])
+        why = "" if is_accepted else "  " + status.message.split(": ", 1)[-1]
+        print(
+            f"[{t:5.1f} s] x0={x0:+.4f} m theta0={theta0:+.3f} rad -> {outcome:<12} "
+            f"{verdict:<8} {extra:<20} ({compute_ms:.1f} ms){why}",
+            flush=True,
+        )
+
+    code = 1
+    spin_thread: threading.Thread | None = None
+    try:
+        listener = rclpy.create_node("xface_demo_listener")
+        listener.create_subscription(DiagnosticStatus, "prediction/status", show, RESULT_QOS)
+        client = listener.create_client(GetPlan, "predict")
+        executor.add_node(listener)
+        spin_thread = threading.Thread(target=executor.spin, daemon=True)
+        spin_thread.start()
+        deadline = time.monotonic() + 120.0
+        while not client.service_is_ready():
+            if node.poll() is not None or time.monotonic() > deadline:
+                print("xface demo: the node did not come up", file=sys.stderr, flush=True)
+                return 1
+            time.sleep(0.1)
+        source = PoseSource(parameter_overrides=[Parameter("rate_hz", value=args.rate)])
+        executor.add_node(source)
+        print(f"xface demo: node ready after {time.monotonic() - started:.1f} s", flush=True)
+        end = time.monotonic() + args.duration
+        while time.monotonic() < end and node.poll() is None:
+            time.sleep(0.1)
+        if node.poll() is not None:
+            print(f"xface demo: the node exited early ({node.returncode})", file=sys.stderr)
+            return 1
+    except KeyboardInterrupt:
+        print("\nxface demo: interrupted", flush=True)
+    finally:
+        node_code = _stop(node)
+        executor.shutdown(timeout_sec=2.0)
+        rclpy.try_shutdown()
+        if spin_thread is not None:
+            spin_thread.join(timeout=2.0)
+        predicted = accepted[True] + accepted[False]
+        print(
+            f"xface demo: {predicted} predictions ({accepted[True]} accepted, "
+            f"{accepted[False]} not), {sum(counts.values()) - predicted} inputs rejected; "
+            + ", ".join(f"{name} {n}" for name, n in sorted(counts.items())),
+            flush=True,
+        )
+        if record_path is not None:
+            size = record_path.stat().st_size if record_path.exists() else 0
+            print(f"xface demo: recording {record_path} ({size} bytes)")
+            print(f"xface demo: view it with `rerun {record_path}`")
+        elif not recording_available:
+            print("xface demo: no recording (xface_core.recording is not available)")
+        print(f"xface demo: node exited with code {node_code}", flush=True)
+        code = 0 if (node_code == 0 and predicted > 0) else 1
+    return code
+
+
+def _stop(node: subprocess.Popen[bytes]) -> int:
+    """SIGINT the node once and wait for it (kill after 30 s)."""
+    if node.poll() is None:
+        node.send_signal(signal.SIGINT)
+    try:
+        return node.wait(timeout=30.0)
+    except subprocess.TimeoutExpired:
+        node.kill()
+        return node.wait()
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
