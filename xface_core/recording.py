@@ -61,6 +61,7 @@ from __future__ import annotations
 
 import math
 import uuid
+import weakref
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -252,8 +253,8 @@ def new_recording(
 
 
 def _closed(poly: FloatArray) -> FloatArray:
-    """A polygon as a closed line strip (first vertex repeated at the end)."""
-    return np.vstack((poly, poly[:1]))
+    """Polygons (..., v, 2) as closed line strips (first vertex repeated at the end)."""
+    return np.concatenate((poly, poly[..., :1, :]), axis=-2)
 
 
 def _check_finite(name: str, values: npt.ArrayLike) -> None:
@@ -380,6 +381,67 @@ def _style(
     rec.log(entity, archetype.from_fields(colors=[color], radii=radius), static=True)
 
 
+def _base_world(poly: FloatArray, phi_b: FloatArray) -> FloatArray:
+    """Base polygon (v, 2) at each angle of ``phi_b`` (n,): (n, v, 2), ``R(phi_b) v``.
+
+    The vectorised twin of :meth:`FaceDesign.base_outline_world` (a test holds them equal).
+    """
+    c, s = np.cos(phi_b)[:, None], np.sin(phi_b)[:, None]
+    px, py = poly[None, :, 0], poly[None, :, 1]
+    return np.stack((c * px - s * py, s * px + c * py), axis=-1)
+
+
+def _moving_world(poly: FloatArray, x0: float, y_m: FloatArray, phi_m: FloatArray) -> FloatArray:
+    """Moving polygon per sample: ``P_M - R(phi_m) v`` with ``P_M = (x0, y_m)`` (units of D).
+
+    The vectorised twin of :meth:`FaceDesign.moving_outline_world`.
+    """
+    c, s = np.cos(phi_m)[:, None], np.sin(phi_m)[:, None]
+    px, py = poly[None, :, 0], poly[None, :, 1]
+    return np.stack((x0 - (c * px - s * py), y_m[:, None] - (s * px + c * py)), axis=-1)
+
+
+#: What each stream already holds statically, per root entity: the design's key and whether
+#: the design itself was logged. A node logs thousands of predictions of one design into one
+#: stream; the static styles and the design need to go in once (and again when it changes).
+_STATICS_LOGGED: weakref.WeakKeyDictionary[rr.RecordingStream, dict[str, object]] = (
+    weakref.WeakKeyDictionary()
+)
+
+
+def _log_statics(rec: rr.RecordingStream, e: str, d: FaceDesign, *, with_design: bool) -> None:
+    """Static parts of a prediction's entity tree: transform, styles, the design."""
+    key = (d.cache_key, d.width, with_design)
+    logged = _STATICS_LOGGED.setdefault(rec, {})
+    if logged.get(e) == key:
+        return
+    if with_design:
+        log_design(rec, d, entity=e)
+    rec.log(f"{e}/scene", _Y_UP, static=True)
+    for k in range(d.n_layers):
+        _style(rec, f"{e}/scene/base/layer{k}", rr.LineStrips2D, _BASE_COLORS[k % 2], _LINE)
+        _style(rec, f"{e}/scene/moving/layer{k}", rr.LineStrips2D, _MOVING_COLORS[k % 2], _LINE)
+        _style(rec, f"{e}/scene/target/layer{k}", rr.LineStrips2D, _TARGET_COLOR, _THIN)
+    _style(rec, f"{e}/scene/pivots", rr.Points2D, _PIVOT_COLOR, rr.Radius.ui_points(4.0))
+    _style(rec, f"{e}/scene/contacts", rr.Points2D, _CONTACT_COLOR, rr.Radius.ui_points(4.0))
+    _style(rec, f"{e}/scene/normals", rr.Arrows2D, _CONTACT_COLOR, _THIN)
+    rec.log(
+        f"{e}/phase",
+        rr.StateConfiguration(
+            values=[p.name for p in Phase], colors=[_PHASE_COLORS[p] for p in Phase]
+        ),
+        static=True,
+    )
+    for name, color in (
+        ("phi_b", _BASE_COLORS[0]),
+        ("phi_m", _MOVING_COLORS[0]),
+        ("descent", (0, 0, 0)),
+        ("gap", _CONTACT_COLOR),
+    ):
+        rec.log(f"{e}/series/{name}", rr.SeriesLines(names=[name], colors=[color]), static=True)
+    logged[e] = key
+
+
 def log_prediction(
     rec: rr.RecordingStream,
     prediction: Prediction,
@@ -440,65 +502,38 @@ def log_prediction(
     n = descent.size
     idx = _indexes(n, descent, ros_stamp_ns)
 
-    if design:
-        log_design(rec, d, entity=e)
-    rec.log(f"{e}/scene", _Y_UP, static=True)
-    rec.log(
-        f"{e}/phase",
-        rr.StateConfiguration(
-            values=[p.name for p in Phase],
-            colors=[_PHASE_COLORS[p] for p in Phase],
-        ),
-        static=True,
-    )
-    for name, color in (
-        ("phi_b", _BASE_COLORS[0]),
-        ("phi_m", _MOVING_COLORS[0]),
-        ("descent", (0, 0, 0)),
-        ("gap", _CONTACT_COLOR),
-    ):
-        rec.log(f"{e}/series/{name}", rr.SeriesLines(names=[name], colors=[color]), static=True)
+    _log_statics(rec, e, d, with_design=design)
 
-    # Outlines: (n, v, 2) per layer and part, in units of D, then scaled to the length unit.
-    base_d = [
-        np.stack([_closed(d.base_outline_world(k, phi_b[i])) for i in range(n)])
-        for k in range(d.n_layers)
-    ]
+    # Outlines: (n, v + 1, 2) closed polygons per layer and part, in units of D.
+    base_d = [_closed(_base_world(d.base_layers[k], phi_b)) for k in range(d.n_layers)]
     moving_d = [
-        np.stack(
-            [_closed(d.moving_outline_world(k, x0 / w, y_m[i] / w, phi_m[i])) for i in range(n)]
-        )
+        _closed(_moving_world(d.moving_layers[k], x0 / w, y_m / w, phi_m))
         for k in range(d.n_layers)
     ]
     first = _indexes(1, descent[:1], ros_stamp_ns)
     for k in range(d.n_layers):
-        for part, outlines, color in (
-            ("base", base_d[k], _BASE_COLORS[k % 2]),
-            ("moving", moving_d[k], _MOVING_COLORS[k % 2]),
-        ):
-            path_entity = f"{e}/scene/{part}/layer{k}"
-            _style(rec, path_entity, rr.LineStrips2D, color, _LINE)
+        for part, outlines in (("base", base_d[k]), ("moving", moving_d[k])):
             rec.send_columns(
-                path_entity, indexes=idx, columns=rr.LineStrips2D.columns(strips=list(outlines * w))
+                f"{e}/scene/{part}/layer{k}",
+                indexes=idx,
+                columns=rr.LineStrips2D.columns(strips=(outlines * w).astype(np.float32)),
             )
         # The seated pose for this x0 as a grey ghost, at the first sample only (latest-at
         # keeps it for the rest of the path); an empty row clears it when no seat exists.
-        target: list[FloatArray] = []
+        target = np.zeros((0, 0, 2))
         if abs(x0) <= d.mated_distance * w:
-            phi = d.seated_angle(x0)
-            y_seat = d.mated_distance * math.cos(phi)
-            target = [_closed(d.moving_outline_world(k, x0 / w, y_seat, phi)) * w]
-        _style(rec, f"{e}/scene/target/layer{k}", rr.LineStrips2D, _TARGET_COLOR, _THIN)
+            phi = np.array([d.seated_angle(x0)])
+            y_seat = d.mated_distance * np.cos(phi)
+            target = _closed(_moving_world(d.moving_layers[k], x0 / w, y_seat, phi)) * w
         rec.send_columns(
             f"{e}/scene/target/layer{k}",
             indexes=first,
-            columns=rr.LineStrips2D.columns(strips=target).partition([len(target)]),
+            columns=rr.LineStrips2D.columns(strips=list(target)).partition([len(target)]),
         )
 
     pivots = np.zeros((n, 2, 2))
     pivots[:, 1, 0] = x0
     pivots[:, 1, 1] = y_m
-    _style(rec, f"{e}/scene/pivots", rr.Points2D, _PIVOT_COLOR, rr.Radius.ui_points(4.0))
     rec.send_columns(
         f"{e}/scene/pivots",
         indexes=idx,
@@ -519,8 +554,6 @@ def log_prediction(
             counts
         ),
     )
-    _style(rec, f"{e}/scene/contacts", rr.Points2D, _CONTACT_COLOR, rr.Radius.ui_points(4.0))
-    _style(rec, f"{e}/scene/normals", rr.Arrows2D, _CONTACT_COLOR, _THIN)
 
     rec.send_columns(
         f"{e}/phase",
