@@ -1,0 +1,1 @@
+"""Packaged data: the paper's M tables (Tables II-IV) as CSV files."""
