@@ -230,6 +230,36 @@ def test_design_is_static_and_mated(tmp_path: Path) -> None:
     np.testing.assert_allclose(strip[:-1], expected, atol=1e-6)
 
 
+def test_base_outline_is_the_world_polygon(tmp_path: Path, seated: Prediction) -> None:
+    path = record(tmp_path, seated)
+    i = len(path_of(seated)) - 1
+    strip = np.array(column(path, "/xface/scene/base/layer0", "LineStrips2D:strips")[i][0])
+    expected = seated.design.base_outline_world(0, path_of(seated).phi_b[i])
+    np.testing.assert_allclose(strip, np.vstack((expected, expected[:1])), atol=1e-6)
+
+
+def test_design_goes_in_once_per_stream(tmp_path: Path) -> None:
+    design = v_face(1.0, 1.0)
+    path = tmp_path / "session.rrd"
+    rec = new_recording(recording_id="session", path=path)
+    for x0 in (0.0, 0.1, 0.2):
+        log_prediction(rec, approach_only(design, x0, 0.0))
+    rec.disconnect()
+    assert len(chunks(path, "/xface/design/base/layer0", static=True)) == 1
+
+
+def test_a_new_design_replaces_the_old_one(tmp_path: Path) -> None:
+    path = tmp_path / "session.rrd"
+    rec = new_recording(recording_id="session", path=path)
+    log_prediction(rec, approach_only(v_face(1.0, 1.0), 0.0, 0.0))
+    taller = v_face(2.0, 1.0)
+    log_prediction(rec, approach_only(taller, 0.0, 0.0))
+    rec.disconnect()
+    last = column(path, "/xface/design/base/layer0", "LineStrips2D:strips", static=True)[-1][0]
+    expected = taller.base_outline_world(0, 0.0)
+    np.testing.assert_allclose(np.array(last)[:-1], expected, atol=1e-6)
+
+
 def test_prediction_without_path_is_one_sample(tmp_path: Path) -> None:
     p = replace(approach_only(v_face(1.0, 1.0), 0.1, 0.2), path=None)
     path = record(tmp_path, p)
@@ -286,6 +316,37 @@ def test_caller_timeline_state_is_left_alone(tmp_path: Path) -> None:
 
 def test_rrd_verify_accepts_a_prediction(tmp_path: Path, seated: Prediction) -> None:
     path = record(tmp_path, seated, ros_stamp_ns=STAMP_NS)
+    result = rerun_cli("rrd", "verify", path)
+    assert result.returncode == 0, result.stderr
+
+
+_RECORD_AND_WAIT = """
+import sys, time
+from xface_core.geometry import v_face
+from xface_core.predict import predict
+from xface_core.recording import new_recording, log_prediction
+rec = new_recording(recording_id="interrupted", path=sys.argv[1])
+log_prediction(rec, predict(v_face(1.0, 1.0), 0.1, 0.1))
+print("recorded", flush=True)
+time.sleep(120)
+"""
+
+
+def test_file_is_finished_after_sigint(tmp_path: Path) -> None:
+    # A process interrupted without calling disconnect(): rerun finishes the file at exit.
+    path = tmp_path / "interrupted.rrd"
+    proc = subprocess.Popen(
+        [sys.executable, "-c", _RECORD_AND_WAIT, str(path)],
+        stdout=subprocess.PIPE,
+        text=True,
+        cwd=Path(__file__).resolve().parents[2],
+    )
+    try:
+        assert proc.stdout is not None
+        assert proc.stdout.readline().strip() == "recorded"
+    finally:
+        proc.send_signal(signal.SIGINT)
+        proc.wait(timeout=60)
     result = rerun_cli("rrd", "verify", path)
     assert result.returncode == 0, result.stderr
 
