@@ -1,0 +1,126 @@
+"""The node's parameters at startup and at run time, its signals and its recording.
+
+Each test starts a node process of its own (separate ROS domain) through the ``launch``
+fixture of tests/ros/conftest.py.
+"""
+
+from __future__ import annotations
+
+import math
+import signal
+from pathlib import Path
+from typing import Any
+
+import pytest
+from diagnostic_msgs.msg import DiagnosticStatus
+
+from xface_core.frames import wrap_angle
+from xface_core.geometry import make_face
+from xface_core.predict import predict
+
+pytestmark = pytest.mark.ros
+
+WIDTH = 0.05
+Y_START = 3.0 * WIDTH
+#: A pose at which the X-Face seats and the V-Face (same H/D and r_p) jams.
+X_ONLY = (0.5, 0.0)
+
+
+def stream(running: Any, x0_widths: float, theta0: float) -> DiagnosticStatus:
+    c = running.client
+    yaw = wrap_angle(theta0 + math.pi)
+    _sent, status = c.publish_until_status(lambda: c.pose_msg(x0_widths * WIDTH, Y_START, yaw))
+    return status  # type: ignore[no-any-return]
+
+
+@pytest.mark.parametrize(
+    ("overrides", "extra_args", "match"),
+    [
+        ({"width_m": 50.0}, [], "width_m"),
+        ({"h_over_d": -1.0}, [], "h_over_d"),
+        ({"face": "Q"}, [], "face must be one of"),
+        ({"friction": 0.5}, [], "friction"),
+        ({}, ["-p", "damping_ratio:=0.0"], "damping_ratio"),
+    ],
+    ids=["width-range", "h_over_d-range", "face-letter", "friction-unsupported", "cli-override"],
+)
+def test_node_refuses_to_start_with_a_bad_parameter(
+    launch: Any, overrides: dict[str, Any], extra_args: list[str], match: str
+) -> None:
+    running = launch(wait=False, extra_args=extra_args, **overrides)
+    code = running.node.wait_exit(timeout_s=120.0)
+    log = running.node.log()
+    assert code == 2, log
+    assert "refusing to start" in log
+    assert match in log
+
+
+def test_out_of_range_change_at_run_time_is_refused_and_changes_nothing(launch: Any) -> None:
+    running = launch(compute_margins=False)
+    c = running.client
+    results = c.set_parameters(width_m=50.0)
+    assert not results[0].successful
+    results = c.set_parameters(friction=0.5)
+    assert not results[0].successful
+    assert "friction" in results[0].reason
+    results = c.set_parameters(face="Q")
+    assert not results[0].successful
+    results = c.set_parameters(record=True)  # read-only
+    assert not results[0].successful
+    assert c.get_parameter("width_m") == pytest.approx(WIDTH)
+    assert c.get_parameter("face") == "X"
+    status = stream(running, 0.0, 0.0)
+    assert c.values(status)["face"] == "X"
+    assert float(c.values(status)["width_m"]) == pytest.approx(WIDTH)
+
+
+def test_valid_design_change_takes_effect_for_the_next_prediction(launch: Any) -> None:
+    running = launch(compute_margins=False)
+    c = running.client
+    before = stream(running, *X_ONLY)
+    assert c.values(before)["outcome"] == "SEATED"
+    results = c.set_parameters(face="V")
+    assert results[0].successful, results[0].reason
+    after = stream(running, *X_ONLY)
+    v = c.values(after)
+    assert v["face"] == "V"
+    x0 = X_ONLY[0] * WIDTH
+    expected = predict(make_face("V", 0.25, 1.0, width=WIDTH), x0, 0.0, y_start=Y_START)
+    assert not expected.seated
+    assert v["outcome"] == expected.outcome.name
+    assert float(v["final_phi_m_rad"]) == pytest.approx(expected.phi_m, abs=1e-12)
+    assert after.level == DiagnosticStatus.WARN
+
+
+def test_min_margin_turns_a_thin_seat_into_a_warning(launch: Any) -> None:
+    running = launch(compute_margins=False)
+    c = running.client
+    assert stream(running, 0.3, 0.2).level == DiagnosticStatus.OK
+    assert c.set_parameters(min_margin=1.0)[0].successful  # 1 m: no seat has that
+    status = stream(running, 0.3, 0.2)
+    v = c.values(status)
+    assert v["outcome"] == "SEATED"
+    assert v["accepted"] == "false"
+    assert status.level == DiagnosticStatus.WARN
+    assert float(v["margin_m"]) < 1.0
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
+def test_signal_stops_the_node_with_exit_code_zero(launch: Any, sig: int) -> None:
+    running = launch(compute_margins=False)
+    stream(running, 0.0, 0.0)  # it has done work and its worker is idle or busy
+    assert running.node.stop(sig) == 0, running.node.log()
+
+
+def test_recording_is_finished_on_shutdown(launch: Any, tmp_path: Path) -> None:
+    pytest.importorskip("xface_core.recording")
+    rrd = tmp_path / "run.rrd"
+    running = launch(compute_margins=False, record=True, record_path=str(rrd))
+    stream(running, 0.3, 0.2)
+    stream(running, 0.9, 0.8)
+    assert running.node.stop(signal.SIGINT) == 0, running.node.log()
+    assert rrd.stat().st_size > 0
+    import rerun as rr
+
+    store = rr.chunk.RrdReader(str(rrd)).store()  # a truncated file would fail to decode
+    assert store is not None
