@@ -82,9 +82,13 @@ E_RELEASE = 2
 E_OFF_EDGE = 3
 E_BELOW_SEAT = 4
 E_SPUN = 5
+E_TURN = 6
 
 TINY = 1e-300
 ALIGN_TOL = 1e-9
+U_TOL = 1e-9
+U_CORNER = 1e-6  # edge-parameter slack within which a vertex meets an edge's end corner
+MAX_TURN = 0.02  # rad per accepted step
 MAX_CAND = 16
 
 # Dormand-Prince 5(4) tableau.
@@ -169,6 +173,27 @@ def _solve_qp(
         vm = lam * am * sqm
         if _feasible(ev, cand, nc, vb, vm, tol):
             act[0] = i
+            # A second contact held with zero slack (e.g. two edges lying flush) is only
+            # satisfied to first order; hold it too, or the path would cut into it at second
+            # order.  Holding it changes v by no more than the feasibility tolerance.
+            best_j = -1
+            best_det = 0.0
+            for m in range(nc):
+                j = cand[m]
+                if j == i:
+                    continue
+                slack = ev[j, 2] * vb + ev[j, 3] * vm - ev[j, 4]
+                if abs(slack) > tol * (1.0 + abs(ev[j, 4])):
+                    continue
+                ab2 = ev[j, 2] * sqb
+                am2 = ev[j, 3] * sqm
+                det = abs(ab * am2 - am * ab2)
+                if det > 1e-9 * math.sqrt(nn * (ab2 * ab2 + am2 * am2)) and det > best_det:
+                    best_det = det
+                    best_j = j
+            if best_j >= 0:
+                act[1] = best_j
+                return 0, 2, vb, vm
             return 0, 1, vb, vm
     for k in range(nc):
         i = cand[k]
@@ -350,7 +375,12 @@ def _rk_step(
     em = h * (E1 * k1m + E3 * k3m + E4 * k4m + E5 * k5m + E6 * k6m + E7 * k7m)
     ok = math.isfinite(eb) and math.isfinite(em) and math.isfinite(nb) and math.isfinite(nm)
     if ok:
-        nb, nm = _project(table, act, nact, nb, nm, x0, ym - h, winv_b, winv_m)
+        # The projection's correction is part of the step's error: a large one means the
+        # step left the constraint manifold (e.g. near a turning point of the contact path).
+        qb, qm = _project(table, act, nact, nb, nm, x0, ym - h, winv_b, winv_m)
+        eb = max(abs(eb), abs(qb - nb))
+        em = max(abs(em), abs(qm - nm))
+        nb, nm = qb, qm
     return nb, nm, eb, em, ok
 
 
@@ -380,7 +410,8 @@ def _event_value(
         return l1 if slot == 0 else l2
     if kind == E_OFF_EDGE:
         _, u, _, _, _, _, _, _, _ = _eval(table, idx, pb, pm, x0, ym)
-        return min(u, 1.0 - u)
+        # A vertex trapped in a corner sits at u = 0 or 1 up to round-off: not an event.
+        return min(u + U_TOL, 1.0 + U_TOL - u)
     if kind == E_BELOW_SEAT:
         return ym - y_floor
     # E_SPUN
@@ -544,10 +575,13 @@ def _record(
 def _touching(
     ev: FloatArray, touch_tol: float, exclude: IntArray, n_ex: int, cand: IntArray
 ) -> int:
-    utol = 1e-9
+    utol = U_CORNER
     nc = 0
     for i in range(ev.shape[0]):
-        if abs(ev[i, 0]) > touch_tol or ev[i, 1] < -utol or ev[i, 1] > 1.0 + utol:
+        # Events stop a crossing just past its threshold (-touch_tol for pairs already
+        # touching), so the window reaches a little below -touch_tol.
+        g = ev[i, 0]
+        if g > touch_tol or g < -4.0 * touch_tol or ev[i, 1] < -utol or ev[i, 1] > 1.0 + utol:
             continue
         skip = False
         for k in range(n_ex):
@@ -558,6 +592,101 @@ def _touching(
         cand[nc] = i
         nc += 1
     return nc
+
+
+@njit(cache=True)
+def _corners_hold(
+    table: FloatArray,
+    corner: IntArray,
+    n_corner: int,
+    pb: float,
+    pm: float,
+    x0: float,
+    ym: float,
+    vb: float,
+    vm: float,
+) -> bool:
+    """True when a short trial move along the rate leaves no corner pair penetrating.
+
+    A vertex penetrates an edge only if it lies behind the edge's line *and* within the
+    edge's span; near a convex corner this is the exact local non-penetration test.
+    """
+    dd = 1e-7
+    for k in range(n_corner):
+        g, u, _, _, _, _, _, _, _ = _eval(table, corner[k], pb + dd * vb, pm + dd * vm, x0, ym - dd)
+        if g < -1e-12 and -U_TOL <= u <= 1.0 + U_TOL:
+            return False
+    return True
+
+
+@njit(cache=True)
+def _choose_motion(
+    table: FloatArray,
+    ev: FloatArray,
+    cand: IntArray,
+    nc: int,
+    pb: float,
+    pm: float,
+    x0: float,
+    ym: float,
+    sqb: float,
+    sqm: float,
+    act: IntArray,
+) -> tuple[int, int, float, float]:
+    """Least-dissipation rate with corner contacts treated as alternatives.
+
+    A vertex touching an edge inside its span is a hard constraint.  A vertex touching at an
+    edge's end (two corners meeting) is only one of several ways to stay apart: the
+    admissible motions form a union, so each alternative is tried on top of the hard
+    constraints and the admissible one of least dissipation wins.
+    """
+    hard = np.empty(nc + 2, dtype=np.int64)
+    corner = np.empty(nc, dtype=np.int64)
+    nh = 0
+    n_corner = 0
+    for k in range(nc):
+        i = cand[k]
+        if U_TOL < ev[i, 1] < 1.0 - U_TOL:
+            hard[nh] = i
+            nh += 1
+        else:
+            corner[n_corner] = i
+            n_corner += 1
+    status, nact, vb, vm = _solve_qp(ev, hard, nh, sqb, sqm, 1e-9, act)
+    if n_corner == 0:
+        return status, nact, vb, vm
+    trial = np.full(4, -1, dtype=np.int64)
+    best = math.inf
+    best_n = 0
+    best_vb = 0.0
+    best_vm = 0.0
+    found = False
+    if status == 0 and _corners_hold(table, corner, n_corner, pb, pm, x0, ym, vb, vm):
+        found = True
+        best = (vb * vb if sqb > 0.0 else 0.0) / max(sqb * sqb, TINY) + vm * vm / (sqm * sqm)
+        best_n, best_vb, best_vm = nact, vb, vm
+    for extra in range(1, 3):
+        if found:
+            break
+        for a in range(n_corner):
+            for b in range(a, n_corner):
+                if (extra == 1 and b != a) or (extra == 2 and b == a):
+                    continue
+                hard[nh] = corner[a]
+                hard[nh + 1] = corner[b]
+                st, na, tb, tm = _solve_qp(ev, hard, nh + extra, sqb, sqm, 1e-9, trial)
+                if st != 0 or not _corners_hold(table, corner, n_corner, pb, pm, x0, ym, tb, tm):
+                    continue
+                cost = (tb * tb if sqb > 0.0 else 0.0) / max(sqb * sqb, TINY) + tm * tm / (sqm * sqm)
+                if cost < best:
+                    found = True
+                    best = cost
+                    best_n, best_vb, best_vm = na, tb, tm
+                    for k in range(4):
+                        act[k] = trial[k]
+    if not found:
+        return 1, 0, 0.0, 0.0
+    return 0, best_n, best_vb, best_vm
 
 
 @njit(cache=True)
@@ -619,9 +748,16 @@ def simulate(
 
     npairs = table.shape[0]
     ev = np.empty((npairs, 6))
+    # Gap and edge parameter of every pair at the start and at the end of the trial step.
+    g_prev = np.empty(npairs)
+    u_prev = np.empty(npairs)
+    g_next = np.empty(npairs)
+    u_next = np.empty(npairs)
     thr = np.zeros(npairs)
     cand = np.empty(MAX_CAND, dtype=np.int64)
-    exclude = np.full(4, -1, dtype=np.int64)
+    # Pairs released or slid off at the current point; kept out of the touching set until
+    # the path makes progress, so a corner touching several features cannot cycle.
+    exclude = np.full(8, -1, dtype=np.int64)
     n_ex = 0
     y_floor = math.sqrt(L * L - x0 * x0) - seat_tol * max(1.0, L)
     had_contact = False
@@ -635,31 +771,9 @@ def simulate(
         # ---- start of an interval: which contacts act, and how do the parts move? ----------
         _eval_all(table, pb, pm, x0, ym, ev)
         nc = _touching(ev, touch_tol, exclude, n_ex, cand)
-        status, new_nact, vb, vm = _solve_qp(ev, cand, nc, sqb, sqm, 1e-9, act)
-        # A vertex sitting on the end of an edge and moving off it does not hold that edge.
-        for _ in range(4):
-            if status != 0 or new_nact == 0:
-                break
-            dropped = False
-            dd = 1e-7
-            for k in range(new_nact):
-                i = act[k]
-                if 1e-9 < ev[i, 1] < 1.0 - 1e-9:
-                    continue
-                _, u2, _, _, _, _, _, _, _ = _eval(
-                    table, i, pb + dd * vb, pm + dd * vm, x0, ym - dd
-                )
-                if u2 < 0.0 or u2 > 1.0:
-                    for m in range(nc):
-                        if cand[m] == i:
-                            cand[m] = cand[nc - 1]
-                            nc -= 1
-                            break
-                    dropped = True
-            if not dropped:
-                break
-            status, new_nact, vb, vm = _solve_qp(ev, cand, nc, sqb, sqm, 1e-9, act)
-        n_ex = 0
+        status, new_nact, vb, vm = _choose_motion(
+            table, ev, cand, nc, pb, pm, x0, ym, sqb, sqm, act
+        )
         if status == 1:
             # Blocked: no descent is possible any more.
             n = _record(path, path_pairs, n, ym, pb, pm, P_END, act, 0)
@@ -683,13 +797,17 @@ def simulate(
                 n = _record(path, path_pairs, n, ym, pb, pm, P_END, act, 0)
                 return O_BAD_MATE, R_BELOW_SEAT, pb, pm, ym, steps, events, changes, rejected, n
             ym -= d
+            n_ex = 0
             events += 1
             had_contact = True
             n = _record(path, path_pairs, n, ym, pb, pm, P_APPROACH, act, 0)
             continue
         # ---- integrate with the active set fixed until the next event ----------------------
         for i in range(npairs):
-            thr[i] = -touch_tol if abs(ev[i, 0]) <= touch_tol else 0.0
+            g = ev[i, 0]
+            thr[i] = min(g, 0.0) - touch_tol if -4.0 * touch_tol <= g <= touch_tol else 0.0
+            g_prev[i] = g
+            u_prev[i] = ev[i, 1]
         phase = P_SLIDE if abs(pb - pm) <= ALIGN_TOL else P_ALIGN
         n = _record(path, path_pairs, n, ym, pb, pm, phase, act, nact)
         while True:
@@ -704,8 +822,10 @@ def simulate(
                 sc_b = atol + rtol * max(abs(pb), abs(nb))
                 sc_m = atol + rtol * max(abs(pm), abs(nm))
                 err = max(abs(eb) / sc_b, abs(em) / sc_m)
-                speed = max(abs(nb - pb), abs(nm - pm)) / h
-                if speed > jam_speed:
+                turn = max(abs(nb - pb), abs(nm - pm))
+                # Cap the rotation per step: near a turning point of the contact path the rate
+                # grows without bound and a long step could jump across thin features.
+                if turn > MAX_TURN or turn > jam_speed * h:
                     ok = False
                     err = math.inf
             else:
@@ -713,8 +833,11 @@ def simulate(
             if err > 1.0:
                 rejected += 1
                 if h <= event_tol:
-                    # The rate diverges: a contact normal runs through both pivots.
+                    # The rate diverges: the contacts reach a turning point (a contact normal
+                    # through both pivots).  The seat itself is such a point.
                     n = _record(path, path_pairs, n, ym, pb, pm, P_END, act, nact)
+                    if _is_seated(pb, pm, x0, ym, L, seat_tol):
+                        return O_SEATED, R_SEATED, pb, pm, ym, steps, events, changes, rejected, n
                     return O_BAD_MATE, R_SINGULAR, pb, pm, ym, steps, events, changes, rejected, n
                 h = max(h * max(0.2, 0.9 * err ** -0.2), 0.5 * event_tol) if ok else h * 0.25
                 continue
@@ -729,15 +852,26 @@ def simulate(
             for k in range(nact):
                 lam = l1 if k == 0 else l2
                 if lam < 0.0:
-                    hk = _locate(
+                    lo, hk = _locate(
                         table, E_RELEASE, act[k], k, 0.0, act, nact, pb, pm, x0, ym, h,
                         sqb, sqm, winv_b, winv_m, y_floor, event_tol,
                     )
+                    kind = E_RELEASE
+                    pbk, pmk, _, _, _ = _rk_step(
+                        table, act, nact, pb, pm, x0, ym, lo, sqb, sqm, winv_b, winv_m
+                    )
+                    _, _, m1, m2 = _velocity(table, act, nact, pbk, pmk, x0, ym - lo, sqb, sqm)
+                    _, _, s1, s2 = _velocity(table, act, nact, pb, pm, x0, ym, sqb, sqm)
+                    if abs(m1 if k == 0 else m2) > 1e-6 * max(1.0, abs(s1 if k == 0 else s2)):
+                        # lambda changed sign through a pole, not through zero: the contact
+                        # path turns back here and cannot descend further.
+                        kind = E_TURN
+                        hk = lo
                     if hk < ev_h or ev_kind == E_NONE:
-                        ev_kind, ev_idx, ev_slot, ev_h = E_RELEASE, act[k], k, hk
+                        ev_kind, ev_idx, ev_slot, ev_h = kind, act[k], k, hk
                 _, u, _, _, _, _, _, _, _ = _eval(table, act[k], nb, nm, x0, ym1)
-                if u < 0.0 or u > 1.0:
-                    hk = _locate(
+                if u < -U_TOL or u > 1.0 + U_TOL:
+                    _, hk = _locate(
                         table, E_OFF_EDGE, act[k], k, 0.0, act, nact, pb, pm, x0, ym, h,
                         sqb, sqm, winv_b, winv_m, y_floor, event_tol,
                     )
@@ -746,14 +880,16 @@ def simulate(
             # inactive pairs: new contacts (the gap crosses its threshold inside the edge)
             cb1, sb1, cm1, sm1 = math.cos(nb), math.sin(nb), math.cos(nm), math.sin(nm)
             for i in range(npairs):
+                g1, u1, _, _, _, _, _, _, _ = eval_pair(table[i], cb1, sb1, cm1, sm1, x0, ym1)
+                g_next[i] = g1
+                u_next[i] = u1
                 if (nact > 0 and act[0] == i) or (nact > 1 and act[1] == i):
                     continue
-                g1, u1, _, _, _, _, _, _, _ = eval_pair(table[i], cb1, sb1, cm1, sm1, x0, ym1)
-                if g1 > thr[i] or ev[i, 0] <= thr[i]:
+                if g1 > thr[i] or g_prev[i] <= thr[i]:
                     continue
-                if (u1 < -0.5 and ev[i, 1] < -0.5) or (u1 > 1.5 and ev[i, 1] > 1.5):
+                if (u1 < -0.5 and u_prev[i] < -0.5) or (u1 > 1.5 and u_prev[i] > 1.5):
                     continue
-                hk = _locate(
+                _, hk = _locate(
                     table, E_CONTACT, i, 0, thr[i], act, nact, pb, pm, x0, ym, h,
                     sqb, sqm, winv_b, winv_m, y_floor, event_tol,
                 )
@@ -763,23 +899,28 @@ def simulate(
                     table, act, nact, pb, pm, x0, ym, hk, sqb, sqm, winv_b, winv_m
                 )
                 _, uk, _, _, _, _, _, _, _ = _eval(table, i, pbk, pmk, x0, ym - hk)
-                if -1e-9 <= uk <= 1.0 + 1e-9:
+                # A vertex crossing a line just beyond the edge's end is meeting the corner
+                # there (e.g. a tip reaching the bottom of a notch): that is a contact too.
+                if -U_CORNER <= uk <= 1.0 + U_CORNER:
                     ev_kind, ev_idx, ev_slot, ev_h = E_CONTACT, i, 0, hk
             if ym1 < y_floor:
-                hk = _locate(
+                _, hk = _locate(
                     table, E_BELOW_SEAT, -1, 0, 0.0, act, nact, pb, pm, x0, ym, h,
                     sqb, sqm, winv_b, winv_m, y_floor, event_tol,
                 )
                 if hk < ev_h or ev_kind == E_NONE:
                     ev_kind, ev_idx, ev_slot, ev_h = E_BELOW_SEAT, -1, 0, hk
             if max(abs(nb), abs(nm)) > math.pi:
-                hk = _locate(
+                _, hk = _locate(
                     table, E_SPUN, -1, 0, 0.0, act, nact, pb, pm, x0, ym, h,
                     sqb, sqm, winv_b, winv_m, y_floor, event_tol,
                 )
                 if hk < ev_h or ev_kind == E_NONE:
                     ev_kind, ev_idx, ev_slot, ev_h = E_SPUN, -1, 0, hk
             if ev_kind == E_NONE:
+                n_ex = 0
+                g_prev[:] = g_next
+                u_prev[:] = u_next
                 steps += 1
                 pb, pm, ym = nb, nm, ym1
                 phase = P_SLIDE if abs(pb - pm) <= ALIGN_TOL else P_ALIGN
@@ -788,7 +929,15 @@ def simulate(
                 h = h * fac
                 continue
             # ---- advance to the event and act on it ------------------------------------------
-            if ev_h > 0.0:
+            if ev_kind == E_TURN:
+                # The rate diverges at a fold of the contact path: integrating up to it is
+                # ill-conditioned, so solve the active constraints there directly (Newton from
+                # the last good state); the state is then exact to about sqrt(event_tol).
+                for _ in range(20):
+                    pb, pm = _project(table, act, nact, pb, pm, x0, ym - ev_h, winv_b, winv_m)
+                ym = ym - ev_h
+                steps += 1
+            elif ev_h > 0.0:
                 pb, pm, _, _, _ = _rk_step(
                     table, act, nact, pb, pm, x0, ym, ev_h, sqb, sqm, winv_b, winv_m
                 )
@@ -799,13 +948,29 @@ def simulate(
             n = _record(path, path_pairs, n, ym, pb, pm, phase, act, nact)
             if ev_kind == E_BELOW_SEAT:
                 n = _record(path, path_pairs, n, ym, pb, pm, P_END, no_act, 0)
+                if _is_seated(pb, pm, x0, ym, L, seat_tol):
+                    return O_SEATED, R_SEATED, pb, pm, ym, steps, events, changes, rejected, n
                 return O_BAD_MATE, R_BELOW_SEAT, pb, pm, ym, steps, events, changes, rejected, n
+            if ev_kind == E_TURN:
+                n = _record(path, path_pairs, n, ym, pb, pm, P_END, no_act, 0)
+                if _is_seated(pb, pm, x0, ym, L, max(seat_tol, 10.0 * math.sqrt(event_tol))):
+                    return O_SEATED, R_SEATED, pb, pm, ym, steps, events, changes, rejected, n
+                return O_BAD_MATE, R_SINGULAR, pb, pm, ym, steps, events, changes, rejected, n
             if ev_kind == E_SPUN:
                 n = _record(path, path_pairs, n, ym, pb, pm, P_END, no_act, 0)
                 return O_BAD_MATE, R_SPUN, pb, pm, ym, steps, events, changes, rejected, n
+            if ev_h > 1e3 * event_tol:
+                n_ex = 0
             if ev_kind == E_RELEASE or ev_kind == E_OFF_EDGE:
-                exclude[0] = ev_idx
-                n_ex = 1
+                if n_ex < exclude.shape[0]:
+                    exclude[n_ex] = ev_idx
+                    n_ex += 1
+            elif ev_kind == E_CONTACT:
+                for k in range(n_ex):
+                    if exclude[k] == ev_idx:
+                        exclude[k] = exclude[n_ex - 1]
+                        n_ex -= 1
+                        break
             h = max(h, 1e3 * event_tol)
             break
 
@@ -830,13 +995,12 @@ def _locate(
     winv_m: float,
     y_floor: float,
     event_tol: float,
-) -> float:
-    """Step length at which an event function reaches zero (Illinois method).
+) -> tuple[float, float]:
+    """Step lengths bracketing the zero of an event function (Illinois method).
 
     The event function is evaluated on the state after one integration step of the trial
     length from the same start, so the located point lies on the integrated path.  The
-    returned length is the last one at which the event had not yet happened plus at most
-    ``event_tol``, i.e. the event point approached from the inside.
+    returned pair ``(lo, hi)`` brackets the event to ``event_tol``: before it and just after.
     """
     lo = 0.0
     f_lo = _event_value(table, kind, idx, slot, thr, act, nact, pb, pm, x0, ym, sqb, sqm, y_floor)
@@ -844,7 +1008,7 @@ def _locate(
     nb, nm, _, _, _ = _rk_step(table, act, nact, pb, pm, x0, ym, hi, sqb, sqm, winv_b, winv_m)
     f_hi = _event_value(table, kind, idx, slot, thr, act, nact, nb, nm, x0, ym - hi, sqb, sqm, y_floor)
     if not f_lo > 0.0:
-        return 0.0
+        return 0.0, 0.0
     side = 0
     for _ in range(100):
         if hi - lo <= event_tol:
@@ -869,7 +1033,7 @@ def _locate(
             if side == -1:
                 f_lo *= 0.5
             side = -1
-    return hi
+    return lo, hi
 
 
 @njit(cache=True)
