@@ -160,7 +160,7 @@ def default_blueprint(
     log = rrb.TextLogView(name="log", origin=f"{e}/log")
     prediction_tab = rrb.Horizontal(
         rrb.Tabs(scene, design),
-        rrb.Vertical(angles, lengths, phase, log, row_shares=[3, 3, 1, 2]),
+        rrb.Vertical(angles, lengths, phase, log, row_shares=[3, 3, 2, 3]),
         column_shares=[3, 2],
         name="prediction",
     )
@@ -206,7 +206,9 @@ def new_recording(
         Connecting returns at once; data is buffered until the viewer answers.
     blueprint : bool or rerun.blueprint.Blueprint
         True: send :func:`default_blueprint` (prediction tab first) as the default layout;
-        a Blueprint: send that one; False: none (the viewer's own heuristics).
+        a Blueprint: send that one; False: none (the viewer's own heuristics). The viewer
+        keeps one layout per application id: give maps their own id (``"xface-map"``) so a
+        viewer that shows a prediction opens a map on the map tab.
 
     Returns
     -------
@@ -243,6 +245,7 @@ def new_recording(
     if url is not None:
         sinks.append(rr.GrpcSink(url))
     if sinks:
+        # A default, not an active blueprint: a user's own layout in a running viewer stays.
         rec.set_sinks(*sinks, default_blueprint=layout)
     elif layout is not None:
         rec.send_blueprint(layout, make_active=False, make_default=True)
