@@ -535,3 +535,16 @@ def test_map_with_inconsistent_rectangle_is_refused(small_map: SimpleNamespace) 
 def test_rerun_cli_is_the_wheels() -> None:
     # The CLI the tests call is the one shipped in the rerun-sdk wheel, beside this Python.
     assert rerun_cli("--version").stdout.split()[1] == rr.__version__
+
+
+# --- cost (timed only with --benchmark-enable) --------------------------------------------------
+
+
+def test_log_prediction_benchmark(benchmark: Any, tmp_path: Path, seated: Prediction) -> None:
+    # One real X-Face prediction per call into one file, as the node records a session.
+    # Timed: pytest tests/core/test_recording.py -k benchmark --benchmark-enable
+    path = tmp_path / "bench.rrd"
+    rec = new_recording(recording_id="bench", path=path)
+    benchmark(log_prediction, rec, seated, ros_stamp_ns=STAMP_NS)
+    rec.disconnect()
+    assert len(column(path, "/xface/series/phi_m", "Scalars:scalars")) >= len(path_of(seated))
