@@ -113,6 +113,15 @@ _LEVELS = {
 }
 
 
+def _root(entity: str) -> str:
+    """A root entity path without its slashes; an empty one would put the tree at the
+    recording's root, where it collides with everything else."""
+    root = str(entity).strip("/")
+    if not root:
+        raise XfaceValueError(f"entity must name a path such as 'xface', got {entity!r}")
+    return root
+
+
 # --- the stream and its layout ----------------------------------------------------------------
 
 
@@ -143,7 +152,7 @@ def default_blueprint(
     """
     if active not in ("prediction", "map"):
         raise XfaceValueError(f"active must be 'prediction' or 'map', got {active!r}")
-    e, m = entity.strip("/"), map_entity.strip("/")
+    e, m = _root(entity), _root(map_entity)
     scene = rrb.Spatial2DView(name="scene", origin=e, contents=f"/{e}/scene/**")
     design = rrb.Spatial2DView(name="design", origin=e, contents=f"/{e}/design/**")
     angles = rrb.TimeSeriesView(
@@ -283,7 +292,7 @@ def log_design(rec: rr.RecordingStream, design: FaceDesign, *, entity: str = "xf
     >>> from xface_core import x_face
     >>> log_design(new_recording(recording_id="doc"), x_face(0.25, 1.0))
     """
-    e = entity.strip("/")
+    e = _root(entity)
     w = design.width
     L = design.mated_distance
     rec.log(f"{e}/design", _Y_UP, static=True)
@@ -495,7 +504,7 @@ def log_prediction(
         isinstance(ros_stamp_ns, bool) or not isinstance(ros_stamp_ns, int | np.integer)
     ):
         raise XfaceValueError(f"ros_stamp_ns must be an integer (ns), got {ros_stamp_ns!r}")
-    e = entity.strip("/")
+    e = _root(entity)
     d = prediction.design
     w = d.width
     x0 = prediction.x0
@@ -675,7 +684,7 @@ def log_acceptance_map(
     """
     x0, theta0, outcomes = _checked_grid(amap)
     rect = guaranteed_cells(amap)
-    e = entity.strip("/")
+    e = _root(entity)
     n, m = outcomes.shape
     colors = outcome_colors()
     rec.log(

@@ -381,6 +381,19 @@ def test_nan_path_is_refused(seated: Prediction) -> None:
         log_prediction(rec, replace(seated, path=bad_path))
 
 
+@pytest.mark.parametrize("entity", ["", "/", "//"])
+def test_an_empty_entity_is_refused(seated: Prediction, entity: str) -> None:
+    rec = new_recording(recording_id="root", blueprint=False)
+    with pytest.raises(XfaceValueError, match="entity"):
+        log_prediction(rec, seated, entity=entity)
+
+
+def test_another_entity_holds_the_tree(tmp_path: Path, seated: Prediction) -> None:
+    path = record(tmp_path, seated, entity="/robot/dock/")
+    logged = [v[0] for v in column(path, "/robot/dock/series/phi_m", "Scalars:scalars")]
+    np.testing.assert_array_equal(logged, path_of(seated).phi_m)
+
+
 def test_blueprint_argument_is_checked() -> None:
     with pytest.raises(XfaceValueError, match="blueprint"):
         new_recording(blueprint="yes")
