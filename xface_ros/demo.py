@@ -164,10 +164,10 @@ def main(argv: list[str] | None = None) -> int:
         print("\nxface demo: interrupted", flush=True)
     finally:
         node_code = _stop(node)
-        executor.shutdown(timeout_sec=2.0)
+        executor.shutdown(timeout_sec=5.0)
+        if spin_thread is not None:  # stopped before the context it waits on goes away
+            spin_thread.join(timeout=5.0)
         rclpy.try_shutdown()
-        if spin_thread is not None:
-            spin_thread.join(timeout=2.0)
         predicted = accepted[True] + accepted[False]
         print(
             f"xface demo: {predicted} predictions ({accepted[True]} accepted, "

@@ -1,10 +1,11 @@
 """The ``xface_predictor`` node: relative poses in, docking predictions out.
 
-Threads: the executor (a :class:`MultiThreadedExecutor`) runs the subscription, the
-``predict`` service, the parameter services and the diagnostics timer in separate callback
-groups; one worker thread simulates. The subscription only stores the newest pose in a
-:class:`~xface_ros.latest.LatestSlot` (an overwritten, unprocessed pose is counted as
-dropped), so a pose stream faster than the simulator never queues up.
+Threads: the executor (one thread) runs the subscription, the ``predict`` service, the
+parameter services and the diagnostics timer (in separate callback groups, so the node also
+works under a multi-threaded executor); one worker thread simulates the streamed poses. The
+subscription only stores the newest pose in a :class:`~xface_ros.latest.LatestSlot` (an
+overwritten, unprocessed pose is counted as dropped), so a pose stream faster than the
+simulator never queues up.
 
 The interface (topics, QoS, service, parameters) is documented in docs/ros.md.
 """
@@ -30,7 +31,7 @@ from rcl_interfaces.msg import SetParametersResult
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
 from rclpy.event_handler import QoSMessageLostInfo, SubscriptionEventCallbacks
 from rclpy.exceptions import ParameterException
-from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import (
@@ -428,6 +429,8 @@ class XfacePredictor(Node):
             return self._reject_query(response, config, exc.code, exc.detail)
         except XfaceError as exc:
             return self._reject_query(response, config, "invalid_input", str(exc))
+        except Exception as exc:  # a bug in the simulator must not take the node down
+            return self._reject_query(response, config, "internal_error", repr(exc))
         header = Header(stamp=start_msg.header.stamp, frame_id=config.base_frame)
         decision = decide(prediction, required_margin_m=required)
         response.plan = (
@@ -561,7 +564,10 @@ def main(args: list[str] | None = None) -> int:
     """
     rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.ALL)
     node: XfacePredictor | None = None
-    executor = MultiThreadedExecutor(num_threads=4)
+    # One executor thread: rclpy's SingleThreadedExecutor takes a 1 kHz pose stream with far
+    # fewer losses than its MultiThreadedExecutor (scripts/ros_stress.py, docs/ros.md); the
+    # simulation runs in the worker thread, so callbacks stay short.
+    executor = SingleThreadedExecutor()
     code = 0
     try:
         node = XfacePredictor()

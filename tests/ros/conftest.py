@@ -319,10 +319,11 @@ class RosClient:
         return Parameter.from_parameter_msg(ParameterMsg(name=name, value=value)).value
 
     def close(self) -> None:
+        # Stop the spinning thread before the node and context it uses are destroyed.
         self.executor.shutdown(timeout_sec=5.0)
+        self._thread.join(timeout=5.0)
         self.node.destroy_node()
         rclpy.try_shutdown(context=self.context)
-        self._thread.join(timeout=5.0)
 
 
 def _result(future: Any, timeout_s: float) -> Any:

@@ -1,0 +1,320 @@
+#!/usr/bin/env python3
+"""Stress the xface_predictor node: a fast PoseStamped stream into a node process.
+
+    .venv/bin/python scripts/ros_stress.py                 # 1 kHz for 10 s (the docs' numbers)
+    .venv/bin/python scripts/ros_stress.py --rate 200 --duration 3 --json out.json
+
+Starts the node as its own process (``python -m xface_ros`` with config/xface.yaml), then
+from this process:
+
+* publishes poses at ``--rate`` Hz for ``--duration`` s from a dedicated thread, cycling
+  through poses that seat and poses that do not, each stamped when it is sent;
+* receives every ``prediction/status`` and takes the latency from the input stamp to the
+  arrival of the status here (so it includes both DDS hops, the wait for the worker and the
+  simulation);
+* calls the ``predict`` service every 0.25 s during the stream (responsiveness);
+* samples the node's resident memory from /proc;
+* reads the node's counters from ``/diagnostics`` after the stream has drained;
+* stops the node with SIGINT and records its exit code.
+
+Prints a summary (and writes it as JSON with ``--json``). Discovery stays on this host, in
+ROS domain ``--domain-id`` (default: ``ROS_DOMAIN_ID`` if set, else 199).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import signal
+import statistics
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+from typing import Any
+
+ROOT = Path(__file__).resolve().parents[1]
+
+#: (x0 / D, theta0 rad) cycled by the stream: seats, seats, jams, out of reach, misses.
+POSES = [(0.0, 0.0), (0.3, 0.2), (0.9, 0.8), (2.5, 0.0), (1.5, 0.3), (-0.4, -0.3)]
+WIDTH = 0.05  # config/xface.yaml
+Y_START = 3.0 * WIDTH
+
+
+def rss_mib(pid: int) -> float:
+    """Resident set size of a process in MiB (/proc/<pid>/status, VmRSS)."""
+    for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+        if line.startswith("VmRSS:"):
+            return int(line.split()[1]) / 1024.0
+    raise RuntimeError(f"no VmRSS for pid {pid}")
+
+
+def percentile(values: list[float], q: float) -> float:
+    """The q-th percentile (0..100, nearest rank) of ``values``; NaN when empty."""
+    if not values:
+        return math.nan
+    ordered = sorted(values)
+    rank = max(0, min(len(ordered) - 1, math.ceil(q / 100.0 * len(ordered)) - 1))
+    return ordered[rank]
+
+
+def run_stress(
+    *,
+    rate_hz: float,
+    duration_s: float,
+    domain_id: int,
+    params_file: Path,
+    node_args: list[str],
+    log_path: Path | None,
+) -> dict[str, Any]:
+    """Run one stress session; returns the measurements (see the module docstring)."""
+    env = dict(os.environ)
+    env.update(
+        ROS_DOMAIN_ID=str(domain_id),
+        ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
+        ROS_STATIC_PEERS="",
+        PYTHONUNBUFFERED="1",
+    )
+    os.environ.update({k: env[k] for k in ("ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_STATIC_PEERS")})
+    command = [sys.executable, "-m", "xface_ros", "--ros-args", "--params-file", str(params_file)]
+    log = open(log_path, "w") if log_path else subprocess.DEVNULL  # noqa: SIM115
+    node = subprocess.Popen(
+        command + node_args, env=env, cwd=ROOT, stdout=log, stderr=subprocess.STDOUT
+    )
+
+    import rclpy
+    from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+    from geometry_msgs.msg import PoseStamped
+    from nav_msgs.srv import GetPlan
+    from rclpy.context import Context
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.qos import qos_profile_sensor_data
+    from rclpy.signals import SignalHandlerOptions
+
+    from xface_core.frames import DockStart, start_to_relative_pose
+    from xface_ros.conversions import planar_to_pose
+    from xface_ros.node import RESULT_QOS
+
+    context = Context()
+    rclpy.init(context=context, domain_id=domain_id, signal_handler_options=SignalHandlerOptions.NO)
+    client_node = rclpy.create_node("xface_stress", context=context)
+    executor = SingleThreadedExecutor(context=context)
+    executor.add_node(client_node)
+
+    lock = threading.Lock()
+    latencies_ms: list[float] = []
+    compute_ms: list[float] = []
+    outcomes: dict[str, int] = {}
+    diagnostics: list[dict[str, str]] = []
+
+    def on_status(status: DiagnosticStatus) -> None:
+        now = time.time_ns()
+        values = {kv.key: kv.value for kv in status.values}
+        with lock:
+            outcomes[values.get("outcome", "?")] = outcomes.get(values.get("outcome", "?"), 0) + 1
+            if "input_stamp_ns" in values:
+                latencies_ms.append((now - int(values["input_stamp_ns"])) * 1e-6)
+            if "compute_time_ms" in values:
+                compute_ms.append(float(values["compute_time_ms"]))
+
+    def on_diagnostics(array: DiagnosticArray) -> None:
+        for status in array.status:
+            if status.name == "xface_predictor: predictor":
+                with lock:
+                    diagnostics.append({kv.key: kv.value for kv in status.values})
+
+    client_node.create_subscription(DiagnosticStatus, "prediction/status", on_status, RESULT_QOS)
+    client_node.create_subscription(DiagnosticArray, "/diagnostics", on_diagnostics, 10)
+    pub = client_node.create_publisher(PoseStamped, "relative_pose", qos_profile_sensor_data)
+    plan_client = client_node.create_client(GetPlan, "predict")
+    spin = threading.Thread(target=executor.spin, daemon=True)
+    spin.start()
+
+    result: dict[str, Any] = {"rate_hz": rate_hz, "duration_s": duration_s}
+    try:
+        deadline = time.monotonic() + 120.0
+        while not (plan_client.service_is_ready() and pub.get_subscription_count() > 0):
+            if node.poll() is not None or time.monotonic() > deadline:
+                raise RuntimeError(f"node did not come up (exit code {node.poll()})")
+            time.sleep(0.05)
+        time.sleep(1.0)  # let the worker finish its warm-up prediction
+        messages = []
+        for x0_widths, theta0 in POSES:
+            msg = PoseStamped()
+            msg.header.frame_id = "xface_base"
+            start = DockStart(x0_widths * WIDTH, theta0, Y_START)
+            msg.pose = planar_to_pose(start_to_relative_pose(start))
+            messages.append(msg)
+
+        rss_start = rss_mib(node.pid)
+        rss_samples = [rss_start]
+        sent = 0
+        stop = threading.Event()
+
+        def publish_stream() -> None:
+            nonlocal sent
+            period = 1.0 / rate_hz
+            t0 = time.perf_counter()
+            n_total = round(rate_hz * duration_s)
+            for i in range(n_total):
+                target = t0 + i * period
+                delay = target - time.perf_counter()
+                if delay > 0:
+                    time.sleep(delay)
+                msg = messages[i % len(messages)]
+                msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(
+                    time.time_ns(), 1_000_000_000
+                )
+                pub.publish(msg)
+                sent += 1
+            stop.set()
+
+        service_times_ms: list[float] = []
+        service_failures = 0
+        request = GetPlan.Request()  # empty start frame: "use the latest streamed pose"
+        stream_start = time.perf_counter()
+        publisher = threading.Thread(target=publish_stream, daemon=True)
+        publisher.start()
+        while not stop.is_set():
+            t = time.perf_counter()
+            future = plan_client.call_async(request)
+            answered = False
+            while time.perf_counter() - t < 5.0:
+                if future.done():
+                    answered = True
+                    break
+                time.sleep(0.001)
+            if answered:
+                service_times_ms.append((time.perf_counter() - t) * 1e3)
+            else:
+                service_failures += 1
+            rss_samples.append(rss_mib(node.pid))
+            stop.wait(0.25)
+        publisher.join()
+        stream_s = time.perf_counter() - stream_start
+        # Drain: the worker finishes its last pose; then two diagnostics periods.
+        time.sleep(3.0)
+        rss_end = rss_mib(node.pid)
+        with lock:
+            last_diag = diagnostics[-1] if diagnostics else {}
+            lat = list(latencies_ms)
+            comp = list(compute_ms)
+            outs = dict(outcomes)
+        received = int(last_diag.get("received_total", "0"))
+        result.update(
+            sent=sent,
+            stream_s=stream_s,
+            achieved_rate_hz=sent / stream_s,
+            node_received=received,
+            node_predicted=int(last_diag.get("predicted_total", "0")),
+            node_dropped_newest_wins=int(last_diag.get("dropped_total", "0")),
+            node_input_errors=int(last_diag.get("input_errors_total", "0")),
+            node_dds_lost_reported=int(last_diag.get("dds_lost_total", "0")),
+            dds_lost=sent - received,
+            statuses_received=len(lat),
+            outcomes=outs,
+            latency_ms_median=statistics.median(lat) if lat else math.nan,
+            latency_ms_p99=percentile(lat, 99.0),
+            latency_ms_max=max(lat, default=math.nan),
+            compute_ms_median=statistics.median(comp) if comp else math.nan,
+            service_calls=len(service_times_ms) + service_failures,
+            service_answered=len(service_times_ms),
+            service_ms_median=statistics.median(service_times_ms) if service_times_ms else math.nan,
+            service_ms_max=max(service_times_ms, default=math.nan),
+            rss_mib_start=rss_start,
+            rss_mib_end=rss_end,
+            rss_mib_peak=max([*rss_samples, rss_end]),
+            node_alive_after_stream=node.poll() is None,
+        )
+    finally:
+        if node.poll() is None:
+            node.send_signal(signal.SIGINT)
+        try:
+            result["node_exit_code"] = node.wait(timeout=60.0)
+        except subprocess.TimeoutExpired:
+            node.kill()
+            result["node_exit_code"] = node.wait()
+        # Stop the spinning thread before anything it uses is destroyed (a thread still in
+        # the wait set at interpreter exit aborts the process).
+        executor.shutdown(timeout_sec=5.0)
+        spin.join(timeout=5.0)
+        client_node.destroy_node()
+        rclpy.try_shutdown(context=context)
+        if log_path:
+            log.close()  # type: ignore[union-attr]
+    return result
+
+
+def summary(r: dict[str, Any]) -> str:
+    lines = [
+        (
+            f"stream: {r['sent']} poses in {r['stream_s']:.2f} s "
+            f"({r['achieved_rate_hz']:.0f} Hz, asked {r['rate_hz']:g} Hz)"
+        ),
+        (
+            f"node: received {r['node_received']}, predicted {r['node_predicted']}, "
+            f"dropped (newest wins) {r['node_dropped_newest_wins']}, input errors "
+            f"{r['node_input_errors']}"
+        ),
+        (
+            f"lost before the node (best-effort DDS, reader queue of 5): {r['dds_lost']} "
+            f"(the node's message-lost event reported {r['node_dds_lost_reported']})"
+        ),
+        (
+            f"latency stamp -> status received: median {r['latency_ms_median']:.2f} ms, "
+            f"p99 {r['latency_ms_p99']:.2f} ms, max {r['latency_ms_max']:.2f} ms "
+            f"({r['statuses_received']} statuses)"
+        ),
+        f"simulation per pose: median {r['compute_ms_median']:.2f} ms",
+        (
+            f"service during the stream: {r['service_answered']}/{r['service_calls']} "
+            f"answered, median {r['service_ms_median']:.1f} ms, max {r['service_ms_max']:.1f} ms"
+        ),
+        (
+            f"node RSS: {r['rss_mib_start']:.1f} MiB at start, {r['rss_mib_end']:.1f} MiB at "
+            f"end, peak {r['rss_mib_peak']:.1f} MiB"
+        ),
+        f"outcomes: {r['outcomes']}",
+        (
+            f"node alive after the stream: {r['node_alive_after_stream']}; "
+            f"exit code on SIGINT: {r['node_exit_code']}"
+        ),
+    ]
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--rate", type=float, default=1000.0, help="poses per second")
+    parser.add_argument("--duration", type=float, default=10.0, help="seconds of stream")
+    parser.add_argument(
+        "--domain-id", type=int, default=int(os.environ.get("ROS_DOMAIN_ID") or 199)
+    )
+    parser.add_argument("--params-file", type=Path, default=ROOT / "config" / "xface.yaml")
+    parser.add_argument(
+        "--node-arg", action="append", default=[], metavar="ARG",
+        help="extra node argument after --ros-args (repeat), e.g. --node-arg=-p "
+        "--node-arg=compute_margins:=false",
+    )  # fmt: skip
+    parser.add_argument("--json", type=Path, help="also write the results here")
+    parser.add_argument("--node-log", type=Path, help="write the node's output here")
+    args = parser.parse_args(argv)
+    result = run_stress(
+        rate_hz=args.rate,
+        duration_s=args.duration,
+        domain_id=args.domain_id,
+        params_file=args.params_file,
+        node_args=args.node_arg,
+        log_path=args.node_log,
+    )
+    print(summary(result), flush=True)
+    if args.json:
+        args.json.write_text(json.dumps(result, indent=2, sort_keys=True))
+    return 0 if result["node_exit_code"] == 0 and result["node_alive_after_stream"] else 1
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
