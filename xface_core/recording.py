@@ -447,7 +447,7 @@ def _log_statics(rec: rr.RecordingStream, e: str, d: FaceDesign, *, with_design:
     for name, color in (
         ("phi_b", _BASE_COLORS[0]),
         ("phi_m", _MOVING_COLORS[0]),
-        ("descent", (0, 0, 0)),
+        ("descent", (200, 200, 200)),  # light: the viewer is dark
         ("gap", _CONTACT_COLOR),
     ):
         rec.log(f"{e}/series/{name}", rr.SeriesLines(names=[name], colors=[color]), static=True)
