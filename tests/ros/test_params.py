@@ -137,3 +137,22 @@ def test_default_record_path_is_a_timestamped_rrd_in_the_working_directory(
     assert path.parent == tmp_path
     assert path.name.startswith("xface-")
     assert path.suffix == ".rrd"
+
+
+def test_docs_list_every_parameter_with_its_default() -> None:
+    docs = (ROOT / "docs" / "ros.md").read_text(encoding="utf-8")
+    rows = {
+        line.split("|")[1].strip().strip("`"): line
+        for line in docs.splitlines()
+        if line.startswith("| `")
+    }
+    for spec in SPECS:
+        assert spec.name in rows, spec.name
+        default = spec.default
+        if isinstance(default, bool):
+            text = "true" if default else "false"
+        elif isinstance(default, str):
+            text = f'"{default}"'
+        else:
+            text = repr(default)
+        assert f"`{text}`" in rows[spec.name], (spec.name, text)
