@@ -283,10 +283,12 @@ class RosClient:
             msg = make_msg()
             sent_ns = stamp_ns(msg.header.stamp)
             self.pose_pub.publish(msg)
+
+            def for_this_pose(status: DiagnosticStatus, ns: int = sent_ns) -> bool:
+                return status_values(status).get("input_stamp_ns") == str(ns)
+
             try:
-                status = self.status.wait_for(
-                    lambda s, ns=sent_ns: status_values(s).get("input_stamp_ns") == str(ns), 2.0
-                )
+                status = self.status.wait_for(for_this_pose, 2.0)
             except TimeoutError:
                 continue
             if also(sent_ns):
