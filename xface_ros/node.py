@@ -288,7 +288,8 @@ class XfacePredictor(Node):
         msg = item.message
         config = self.config
         try:
-            start = start_from_pose(msg, config, now_ns=self._now_ns())
+            # Judge the stamp on arrival: waiting for the worker is our delay, not the input's.
+            start = start_from_pose(msg, config, now_ns=item.receive_ns)
             need_path = (
                 self._path_pub.get_subscription_count() > 0
                 or self._markers_pub.get_subscription_count() > 0
@@ -343,7 +344,7 @@ class XfacePredictor(Node):
         latency_ms = (self._now_ns() - stamp_to_ns(msg.header.stamp)) * 1e-6
         if prediction.seated:
             self._seated_pub.publish(seated_pose_msg(prediction, header))
-        if self._path_pub.get_subscription_count() > 0:
+        if prediction.path is not None and self._path_pub.get_subscription_count() > 0:
             self._path_pub.publish(path_msg(prediction, header, max_poses=config.max_path_poses))
         if self._markers_pub.get_subscription_count() > 0:
             self._markers_pub.publish(markers_msg(prediction, header))
