@@ -613,8 +613,11 @@ def _corners_hold(
     """
     dd = 1e-7
     for k in range(n_corner):
+        g0, _, _, _, _, _, _, _, _ = _eval(table, corner[k], pb, pm, x0, ym)
         g, u, _, _, _, _, _, _, _ = _eval(table, corner[k], pb + dd * vb, pm + dd * vm, x0, ym - dd)
-        if g < -1e-12 and -U_TOL <= u <= 1.0 + U_TOL:
+        # Compare with where the pair starts: events leave gaps of +-event_tol behind, and
+        # the trial move's second-order drift is ~dd^2; a real cut shrinks g by ~dd.
+        if g < min(g0, 0.0) - 1e-11 and -U_CORNER <= u <= 1.0 + U_CORNER:
             return False
     return True
 
@@ -646,12 +649,22 @@ def _choose_motion(
     n_corner = 0
     for k in range(nc):
         i = cand[k]
-        if U_TOL < ev[i, 1] < 1.0 - U_TOL:
+        u = ev[i, 1]
+        if U_TOL < u < 1.0 - U_TOL:
             hard[nh] = i
             nh += 1
         else:
+            # Pairs just beyond an edge's end are only checked for penetration; they are
+            # never held (holding them would slide them off at once).
             corner[n_corner] = i
             n_corner += 1
+    n_alt = 0
+    alt = np.empty(n_corner, dtype=np.int64)
+    for k in range(n_corner):
+        u = ev[corner[k], 1]
+        if -U_TOL <= u <= 1.0 + U_TOL:
+            alt[n_alt] = corner[k]
+            n_alt += 1
     status, nact, vb, vm = _solve_qp(ev, hard, nh, sqb, sqm, 1e-9, act)
     if n_corner == 0:
         return status, nact, vb, vm
@@ -668,12 +681,12 @@ def _choose_motion(
     for extra in range(1, 3):
         if found:
             break
-        for a in range(n_corner):
-            for b in range(a, n_corner):
+        for a in range(n_alt):
+            for b in range(a, n_alt):
                 if (extra == 1 and b != a) or (extra == 2 and b == a):
                     continue
-                hard[nh] = corner[a]
-                hard[nh + 1] = corner[b]
+                hard[nh] = alt[a]
+                hard[nh + 1] = alt[b]
                 st, na, tb, tm = _solve_qp(ev, hard, nh + extra, sqb, sqm, 1e-9, trial)
                 if st != 0 or not _corners_hold(table, corner, n_corner, pb, pm, x0, ym, tb, tm):
                     continue
@@ -687,6 +700,48 @@ def _choose_motion(
     if not found:
         return 1, 0, 0.0, 0.0
     return 0, best_n, best_vb, best_vm
+
+
+@njit(cache=True)
+def _fold_residual(
+    table: FloatArray, act: IntArray, pb: float, pm: float, x0: float, ym: float
+) -> tuple[float, float, float]:
+    g1, _, ab1, am1, _, _, _, _, _ = _eval(table, act[0], pb, pm, x0, ym)
+    g2, _, ab2, am2, _, _, _, _, _ = _eval(table, act[1], pb, pm, x0, ym)
+    return g1, g2, ab1 * am2 - am1 * ab2
+
+
+@njit(cache=True)
+def _solve_fold(
+    table: FloatArray, act: IntArray, pb: float, pm: float, x0: float, ym: float
+) -> tuple[float, float, float, bool]:
+    """The fold of a two-contact path near (pb, pm, ym): both gaps zero and the constraint
+    Jacobian in q singular, i.e. the lowest point the pinned contacts can reach.
+
+    Integration can only approach a fold like sqrt(distance), so the end state is solved for
+    directly (Newton, finite-difference Jacobian); returns (pb, pm, ym, converged).
+    """
+    x = np.array([pb, pm, ym])
+    jac = np.empty((3, 3))
+    for _ in range(30):
+        f0 = np.array(_fold_residual(table, act, x[0], x[1], x0, x[2]))
+        if abs(f0[0]) < 1e-14 and abs(f0[1]) < 1e-14 and abs(f0[2]) < 1e-12:
+            return x[0], x[1], x[2], True
+        for j in range(3):
+            step = 1e-7
+            xp = x.copy()
+            xp[j] += step
+            fp = np.array(_fold_residual(table, act, xp[0], xp[1], x0, xp[2]))
+            jac[:, j] = (fp - f0) / step
+        if abs(np.linalg.det(jac)) < 1e-300:
+            break
+        dx = np.linalg.solve(jac, -f0)
+        x += dx
+        if not (np.all(np.isfinite(x)) and abs(x[0] - pb) < 0.1 and abs(x[1] - pm) < 0.1):
+            break
+    f0 = np.array(_fold_residual(table, act, x[0], x[1], x0, x[2]))
+    ok = abs(f0[0]) < 1e-10 and abs(f0[1]) < 1e-10 and abs(x[2] - ym) < 1e-3
+    return x[0], x[1], x[2], ok
 
 
 @njit(cache=True)
@@ -797,12 +852,17 @@ def simulate(
                 n = _record(path, path_pairs, n, ym, pb, pm, P_END, act, 0)
                 return O_BAD_MATE, R_BELOW_SEAT, pb, pm, ym, steps, events, changes, rejected, n
             ym -= d
-            n_ex = 0
+            if d > 1e-7:
+                n_ex = 0
             events += 1
             had_contact = True
             n = _record(path, path_pairs, n, ym, pb, pm, P_APPROACH, act, 0)
             continue
         # ---- integrate with the active set fixed until the next event ----------------------
+        # Start exactly on the active constraints (events leave gaps of up to the touching
+        # tolerance); the step error then measures only the step's own drift.
+        pb, pm = _project(table, act, nact, pb, pm, x0, ym, winv_b, winv_m)
+        _eval_all(table, pb, pm, x0, ym, ev)
         for i in range(npairs):
             g = ev[i, 0]
             thr[i] = min(g, 0.0) - touch_tol if -4.0 * touch_tol <= g <= touch_tol else 0.0
@@ -835,6 +895,10 @@ def simulate(
                 if h <= event_tol:
                     # The rate diverges: the contacts reach a turning point (a contact normal
                     # through both pivots).  The seat itself is such a point.
+                    if nact == 2:
+                        fb, fm, fy, conv = _solve_fold(table, act, pb, pm, x0, ym)
+                        if conv and fy <= ym:
+                            pb, pm, ym = fb, fm, fy
                     n = _record(path, path_pairs, n, ym, pb, pm, P_END, act, nact)
                     if _is_seated(pb, pm, x0, ym, L, seat_tol):
                         return O_SEATED, R_SEATED, pb, pm, ym, steps, events, changes, rejected, n
@@ -936,6 +1000,10 @@ def simulate(
                 for _ in range(20):
                     pb, pm = _project(table, act, nact, pb, pm, x0, ym - ev_h, winv_b, winv_m)
                 ym = ym - ev_h
+                if nact == 2:
+                    fb, fm, fy, conv = _solve_fold(table, act, pb, pm, x0, ym)
+                    if conv and abs(fy - ym) < 1e-6:
+                        pb, pm, ym = fb, fm, fy
                 steps += 1
             elif ev_h > 0.0:
                 pb, pm, _, _, _ = _rk_step(
@@ -953,13 +1021,13 @@ def simulate(
                 return O_BAD_MATE, R_BELOW_SEAT, pb, pm, ym, steps, events, changes, rejected, n
             if ev_kind == E_TURN:
                 n = _record(path, path_pairs, n, ym, pb, pm, P_END, no_act, 0)
-                if _is_seated(pb, pm, x0, ym, L, max(seat_tol, 10.0 * math.sqrt(event_tol))):
+                if _is_seated(pb, pm, x0, ym, L, seat_tol):
                     return O_SEATED, R_SEATED, pb, pm, ym, steps, events, changes, rejected, n
                 return O_BAD_MATE, R_SINGULAR, pb, pm, ym, steps, events, changes, rejected, n
             if ev_kind == E_SPUN:
                 n = _record(path, path_pairs, n, ym, pb, pm, P_END, no_act, 0)
                 return O_BAD_MATE, R_SPUN, pb, pm, ym, steps, events, changes, rejected, n
-            if ev_h > 1e3 * event_tol:
+            if ev_h > 1e-7:
                 n_ex = 0
             if ev_kind == E_RELEASE or ev_kind == E_OFF_EDGE:
                 if n_ex < exclude.shape[0]:

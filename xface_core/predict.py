@@ -58,8 +58,13 @@ class SolverSettings:
     """Width (in descent, D) to which events are located."""
     touch_tol: float = 1e-9
     """Gap (D) below which a vertex-edge pair counts as touching."""
-    seat_tol: float = 1e-6
-    """Tolerance (rad and D) of the seated-pose test."""
+    seat_tol: float = 1e-4
+    """Tolerance of the seated-pose test: |phi_B - phi_M| (rad) and the pivot's distance from
+    the mated position (in D, per D of L). Where the path reaches the seat through a fold of
+    the contact path (a pinned corner turning into flush flanks, as in the V-Face) the
+    angles there are only determined to about sqrt(event_tol) times a geometric factor
+    (1e-5 seen), so the test must be looser than that; 1e-4 D is far below any machining
+    tolerance."""
     max_step: float = 0.05
     """Largest descent step (D); also bounds how far a vertex can move unchecked."""
     first_step: float = 1e-3

@@ -1,0 +1,211 @@
+"""Acceptance maps over grids of initial poses, and the paper's M tables.
+
+A map runs one design over a grid of (x0, theta0); the paper's metric M counts the SEATED
+cells of the 41 x 41 grid x0 in [-D, D], theta0 in [-pi/2, pi/2]. A table runs a map per
+design over the paper's 11 H/D values x 11 r_p values.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass
+from multiprocessing import get_context
+from typing import Literal
+
+import numpy as np
+import numpy.typing as npt
+
+from .bounds import bound_table
+from .errors import XfaceValueError
+from .geometry import FaceDesign, make_face
+from .grids import PAPER_GRID_SIZE, PAPER_H_OVER_D, PAPER_R_P, ThetaGridKind, theta_grid, x0_grid
+from .outcome import Outcome
+from .predict import DEFAULT_SETTINGS, SolverSettings, predict_batch
+from .regions import CellRect, largest_centred_rectangle, largest_rectangle
+
+__all__ = ["AcceptanceMap", "MTable", "acceptance_map", "m_table"]
+
+Method = Literal["sim", "bound"]
+
+
+@dataclass(frozen=True, eq=False)
+class AcceptanceMap:
+    """Outcomes of one design over a grid of initial poses.
+
+    Attributes
+    ----------
+    design : FaceDesign
+    x0 : (n,) float
+        Row values: lateral offsets from -D to D (the design's length unit).
+    theta0 : (m,) float
+        Column values: initial angles (rad).
+    outcomes : (n, m) int8
+        :class:`Outcome` value per cell.
+    guaranteed : (range, range) or None
+        Largest all-SEATED rectangle of cells as (rows, cols) index ranges.
+    centred : (range, range) or None
+        Largest all-SEATED rectangle centred on the aligned pose.
+    """
+
+    design: FaceDesign
+    x0: npt.NDArray[np.float64]
+    theta0: npt.NDArray[np.float64]
+    outcomes: npt.NDArray[np.int8]
+    guaranteed: CellRect | None
+    centred: CellRect | None
+
+    @property
+    def M(self) -> int:
+        """Number of SEATED cells (the paper's metric)."""
+        return int(np.count_nonzero(self.outcomes == Outcome.SEATED))
+
+    def counts(self) -> dict[Outcome, int]:
+        """Number of cells per outcome."""
+        values = np.bincount(self.outcomes.ravel(), minlength=len(Outcome))
+        return {o: int(values[o]) for o in Outcome}
+
+    def region_extent(self, rect: CellRect | None) -> tuple[float, float, float, float] | None:
+        """(x0_min, x0_max, theta0_min, theta0_max) of a rectangle of cells."""
+        if rect is None:
+            return None
+        rows, cols = rect
+        return (
+            float(self.x0[rows.start]),
+            float(self.x0[rows.stop - 1]),
+            float(self.theta0[cols.start]),
+            float(self.theta0[cols.stop - 1]),
+        )
+
+
+def acceptance_map(
+    design: FaceDesign,
+    *,
+    grid: int = PAPER_GRID_SIZE,
+    theta_kind: ThetaGridKind = "symmetric",
+    damping_ratio: float = 1.0,
+    settings: SolverSettings = DEFAULT_SETTINGS,
+    use_symmetry: bool = True,
+) -> AcceptanceMap:
+    """Simulate every node of a ``grid x grid`` map (rows x0 from -D to D, columns theta0
+    from -pi/2 to pi/2, built from integers so mirrored nodes are exact negatives).
+
+    With ``use_symmetry`` and a mirror-symmetric design on the symmetric grid, only half the
+    nodes are simulated and the rest are mirrored: outcome(x0, theta0) = outcome(-x0, -theta0)
+    holds exactly for such designs (the test suite checks it with ``use_symmetry=False``).
+
+    Examples
+    --------
+    >>> from xface_core import x_face
+    >>> amap = acceptance_map(x_face(1.0, 2.0), grid=11)
+    >>> amap.outcomes.shape, amap.M > 0
+    ((11, 11), True)
+    """
+    x_d = x0_grid(grid)
+    th = theta_grid(grid, theta_kind)
+    X, T = np.meshgrid(x_d, th, indexing="ij")
+    if use_symmetry and design.mirror_symmetric and theta_kind == "symmetric":
+        flat = X.size
+        half = flat // 2 + 1  # cells k <= centre; cell flat-1-k is the mirror of cell k
+        res = predict_batch(
+            design,
+            X.ravel()[:half] * design.width,
+            T.ravel()[:half],
+            damping_ratio=damping_ratio,
+            settings=settings,
+        )
+        out = np.empty(flat, dtype=np.int8)
+        out[:half] = res.outcome
+        out[half:] = res.outcome[: flat - half][::-1]
+        outcomes = out.reshape(X.shape)
+    else:
+        outcomes = predict_batch(
+            design, X * design.width, T, damping_ratio=damping_ratio, settings=settings
+        ).outcome
+    seated = outcomes == Outcome.SEATED
+    return AcceptanceMap(
+        design=design,
+        x0=x_d * design.width,
+        theta0=th,
+        outcomes=outcomes,
+        guaranteed=largest_rectangle(seated),
+        centred=largest_centred_rectangle(seated),
+    )
+
+
+@dataclass(frozen=True, eq=False)
+class MTable:
+    """M over a table of designs (rows H/D, columns r_p), like the paper's Tables II-IV."""
+
+    face: str
+    method: Method
+    h_over_d: npt.NDArray[np.float64]
+    r_p: npt.NDArray[np.float64]
+    M: npt.NDArray[np.int64]
+    theta_kind: ThetaGridKind
+
+
+def _map_m(args: tuple[str, float, float, int, ThetaGridKind, float, SolverSettings]) -> int:
+    face, h, rp, grid, theta_kind, damping_ratio, settings = args
+    return acceptance_map(
+        make_face(face, h, rp),
+        grid=grid,
+        theta_kind=theta_kind,
+        damping_ratio=damping_ratio,
+        settings=settings,
+    ).M
+
+
+def m_table(
+    face: str,
+    *,
+    method: Method = "sim",
+    theta_kind: ThetaGridKind = "symmetric",
+    h_over_d: Sequence[float] = PAPER_H_OVER_D,
+    r_p: Sequence[float] = PAPER_R_P,
+    grid: int = PAPER_GRID_SIZE,
+    damping_ratio: float = 1.0,
+    settings: SolverSettings = DEFAULT_SETTINGS,
+    workers: int | None = None,
+) -> MTable:
+    """M for every design of a table: simulated (``"sim"``) or the paper's closed-form
+    best-case bound (``"bound"``, V and S faces only).
+
+    ``workers`` processes share the maps (default: all cores); results do not depend on it.
+
+    Examples
+    --------
+    >>> t = m_table("V", method="bound", theta_kind="paper")
+    >>> int(t.M[0, 1])  # Table III prints 739
+    739
+    """
+    face = face.upper()
+    if method == "bound":
+        if face not in ("V", "S"):
+            raise XfaceValueError("the closed-form bound exists for the V and S faces only")
+        m = bound_table(face, theta_grid=theta_kind, h_over_d=h_over_d, r_p=r_p, n=grid)  # type: ignore[arg-type]
+    elif method == "sim":
+        jobs = [
+            (face, float(h), float(rp), grid, theta_kind, damping_ratio, settings)
+            for h in h_over_d
+            for rp in r_p
+        ]
+        n_workers = os.cpu_count() or 1 if workers is None else workers
+        if n_workers <= 1:
+            values = [_map_m(j) for j in jobs]
+        else:
+            _map_m(jobs[0])  # compile (or load) the kernel once before forking
+            with ProcessPoolExecutor(n_workers, mp_context=get_context("fork")) as pool:
+                values = list(pool.map(_map_m, jobs, chunksize=4))
+        m = np.asarray(values, dtype=np.int64).reshape(len(h_over_d), len(r_p))
+    else:
+        raise XfaceValueError(f"method must be 'sim' or 'bound', got {method!r}")
+    return MTable(
+        face=face,
+        method=method,
+        h_over_d=np.asarray(h_over_d, dtype=np.float64),
+        r_p=np.asarray(r_p, dtype=np.float64),
+        M=np.asarray(m, dtype=np.int64),
+        theta_kind=theta_kind,
+    )
