@@ -401,7 +401,10 @@ def save_map_png(
     left = _PAD + line_h + _PAD + tick_w + _TICK + 2
     top = _PAD + _text_size(title_font, heading)[1] + 2 * _PAD
     swatch = line_h - 3
-    legend_w = max(_text_size(font, text)[0] for text, _, _ in legend) + swatch + 3 * _PAD
+    # Sized for the widest possible entries, so every map of a grid size has one layout.
+    widest = [f"{o.name.lower().replace('_', ' ')}: {n * m}" for o in Outcome]
+    widest.append(f"guaranteed: {n} x {m}")
+    legend_w = max(_text_size(font, text)[0] for text in widest) + swatch + 3 * _PAD
     right_edge = left + m * scale
     bottom_edge = top + n * scale
     width = max(right_edge + 2 * _PAD + legend_w, left + _text_size(title_font, heading)[0] + _PAD)

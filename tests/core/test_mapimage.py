@@ -15,7 +15,7 @@ from hypothesis.extra import numpy as hnp
 from PIL import Image
 
 from xface_core.errors import XfaceValueError
-from xface_core.geometry import s_face
+from xface_core.geometry import s_face, v_face
 from xface_core.mapimage import (
     GUARANTEED_OUTLINE,
     guaranteed_cells,
@@ -24,6 +24,7 @@ from xface_core.mapimage import (
     save_map_png,
 )
 from xface_core.outcome import Outcome
+from xface_core.sweep import AcceptanceMap, acceptance_map
 
 SEATED, BAD, PASSED = int(Outcome.SEATED), int(Outcome.BAD_MATE), int(Outcome.PASSED)
 
@@ -184,3 +185,36 @@ def test_axes_must_increase(amap: SimpleNamespace) -> None:
 def test_scale_must_be_a_small_positive_integer(amap: SimpleNamespace, scale: Any) -> None:
     with pytest.raises(XfaceValueError, match="scale"):
         map_to_rgb(amap, scale=scale)
+
+
+# --- a real acceptance map ----------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def real_map() -> AcceptanceMap:
+    amap = acceptance_map(v_face(1.0, 1.0), grid=11)
+    assert amap.guaranteed is not None
+    return amap
+
+
+def test_real_map_cells_have_their_colours(real_map: AcceptanceMap) -> None:
+    rgb = map_to_rgb(real_map, scale=1)
+    colors = outcome_colors()
+    expected = np.array([[colors[Outcome(v)] for v in row] for row in real_map.outcomes[::-1]])
+    np.testing.assert_array_equal(rgb, expected)
+
+
+def test_real_map_rectangle_centre_is_seated_in_the_png(
+    tmp_path: Path, real_map: AcceptanceMap
+) -> None:
+    scale = 8
+    picture = save_map_png(real_map, tmp_path / "real.png", scale=scale)
+    cells = guaranteed_cells(real_map)
+    assert cells is not None
+    r0, r1, c0, c1 = cells
+    n = real_map.outcomes.shape[0]
+    i, j = (r0 + r1 - 1) // 2, (c0 + c1 - 1) // 2  # a cell inside the rectangle
+    left, top, _, _ = picture.cells
+    centre = (left + j * scale + scale // 2, top + (n - 1 - i) * scale + scale // 2)
+    with Image.open(picture.path) as image:
+        assert image.convert("RGB").getpixel(centre) == outcome_colors()[Outcome.SEATED]

@@ -33,6 +33,7 @@ from xface_core.recording import (
     new_recording,
 )
 from xface_core.result import AlignmentPath, Counters, Phase, Prediction
+from xface_core.sweep import AcceptanceMap, acceptance_map
 
 RERUN_CLI = Path(sys.executable).with_name("rerun")
 STAMP_NS = 1_700_000_000_123_456_789
@@ -561,3 +562,33 @@ def test_log_prediction_benchmark(benchmark: Any, tmp_path: Path, seated: Predic
     benchmark(log_prediction, rec, seated, ros_stamp_ns=STAMP_NS)
     rec.disconnect()
     assert len(column(path, "/xface/series/phi_m", "Scalars:scalars")) >= len(path_of(seated))
+
+
+# --- a real acceptance map ----------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def real_map() -> AcceptanceMap:
+    amap = acceptance_map(x_face(0.25, 0.25), grid=11)
+    assert amap.guaranteed is not None
+    return amap
+
+
+def test_real_map_image_holds_its_outcomes(tmp_path: Path, real_map: AcceptanceMap) -> None:
+    path = record_map(tmp_path, real_map)
+    rb = chunks(path, "/map/cells/image", static=True)[0]
+    fmt = rb.column("SegmentationImage:format").to_pylist()[0][0]
+    buffer = bytes(rb.column("SegmentationImage:buffer").to_pylist()[0][0])
+    image = np.frombuffer(buffer, dtype=np.uint8).reshape(fmt["height"], fmt["width"])
+    np.testing.assert_array_equal(image, real_map.outcomes)
+
+
+def test_real_map_summary_states_m(tmp_path: Path, real_map: AcceptanceMap) -> None:
+    path = record_map(tmp_path, real_map)
+    text = column(path, "/map/summary", "TextDocument:text", static=True)[0][0]
+    assert f"**M = {real_map.M}**" in text
+
+
+def test_real_map_recording_passes_rrd_verify(tmp_path: Path, real_map: AcceptanceMap) -> None:
+    result = rerun_cli("rrd", "verify", record_map(tmp_path, real_map))
+    assert result.returncode == 0, result.stderr
