@@ -1,0 +1,70 @@
+"""xface_core: will a passive planar dock seat, and along which path?
+
+A quasi-static simulator of two planar connector faces (the X-Face of Eckenstein & Yim and
+the V- and S-Faces it is compared with), each free to rotate about its own pivot, one pivot
+driven straight at the other. Lengths are in the design's unit (its ``width`` is the face
+width D), angles in radians.
+
+Examples
+--------
+>>> import xface_core as xf
+>>> design = xf.x_face(h_over_d=0.25, r_p=2.0)
+>>> p = xf.predict(design, x0=0.3, theta0=0.2)
+>>> p.outcome, p.seated
+(<Outcome.SEATED: 3>, True)
+>>> xf.acceptance_map(design).M
+303
+"""
+
+from __future__ import annotations
+
+from .errors import GeometryError, InputError, XfaceError, XfaceValueError
+from .geometry import FaceDesign, custom_face, make_face, s_face, v_face, x_face
+from .grids import PAPER_H_OVER_D, PAPER_R_P, theta_grid, x0_grid
+from .margins import outcome_margins
+from .outcome import Outcome
+from .predict import (
+    DEFAULT_SETTINGS,
+    BatchResult,
+    SolverSettings,
+    predict,
+    predict_batch,
+)
+from .regions import largest_centred_rectangle, largest_rectangle
+from .result import AlignmentPath, Counters, Margins, Phase, Prediction
+from .sweep import AcceptanceMap, MTable, acceptance_map, m_table
+
+__all__ = [
+    "DEFAULT_SETTINGS",
+    "PAPER_H_OVER_D",
+    "PAPER_R_P",
+    "AcceptanceMap",
+    "AlignmentPath",
+    "BatchResult",
+    "Counters",
+    "FaceDesign",
+    "GeometryError",
+    "InputError",
+    "MTable",
+    "Margins",
+    "Outcome",
+    "Phase",
+    "Prediction",
+    "SolverSettings",
+    "XfaceError",
+    "XfaceValueError",
+    "acceptance_map",
+    "custom_face",
+    "largest_centred_rectangle",
+    "largest_rectangle",
+    "m_table",
+    "make_face",
+    "outcome_margins",
+    "predict",
+    "predict_batch",
+    "s_face",
+    "theta_grid",
+    "v_face",
+    "x0_grid",
+    "x_face",
+]

@@ -1,0 +1,331 @@
+"""The ``xface`` command line: predict one dock, map a design, tabulate M, benchmark.
+
+Lengths are in units of D unless ``--width`` gives D in metres (or any unit): then x0 and
+y-start are read, and lengths printed, in that unit. Plain text by default, ``--json`` for
+machines.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from .errors import XfaceError
+from .geometry import make_face
+from .grids import ThetaGridKind
+from .outcome import Outcome
+from .paper import PAPER_MEAN_RATIO_XS, PAPER_MEAN_RATIO_XV, mean_ratio, paper_table
+from .predict import predict
+from .sweep import AcceptanceMap, MTable, acceptance_map, m_table
+
+__all__ = ["main"]
+
+
+def _design_args(p: argparse.ArgumentParser, *, face_choices: Sequence[str] = ("X", "V", "S")) -> None:
+    p.add_argument("--face", type=str.upper, choices=face_choices, default="X")
+    p.add_argument("--h-over-d", type=float, default=0.25, help="profile height H / width D")
+    p.add_argument("--rp", type=float, default=2.0, help="pivot to profile base, in widths D")
+    p.add_argument("--width", type=float, default=1.0, help="face width D (length unit)")
+    p.add_argument("--damping-ratio", type=float, default=1.0, help="c_B / c_M (inf: base fixed)")
+    p.add_argument("--json", action="store_true", help="machine-readable output")
+
+
+def _prediction_json(pred: Any) -> dict[str, Any]:
+    out: dict[str, Any] = {
+        "outcome": pred.outcome.name,
+        "seated": pred.seated,
+        "reason": pred.reason,
+        "x0": pred.x0,
+        "theta0": pred.theta0,
+        "y_start": pred.y_start,
+        "final": {"phi_b": pred.phi_b, "phi_m": pred.phi_m, "pivot_m": list(pred.pivot_m)},
+        "counters": vars(pred.counters),
+    }
+    if pred.margins is not None:
+        m = pred.margins
+        out["margins"] = {
+            "lateral": m.lateral,
+            "angle": m.angle,
+            "lateral_minus": m.lateral_minus,
+            "lateral_plus": m.lateral_plus,
+            "angle_minus": m.angle_minus,
+            "angle_plus": m.angle_plus,
+        }
+    if pred.path is not None:
+        path = pred.path
+        out["path"] = {
+            "samples": len(path),
+            "descent": path.descent.tolist(),
+            "phi_b": path.phi_b.tolist(),
+            "phi_m": path.phi_m.tolist(),
+            "y_m": path.pivot_m[:, 1].tolist(),
+            "phase": path.phase.tolist(),
+        }
+    return out
+
+
+def _cmd_predict(args: argparse.Namespace) -> int:
+    design = make_face(args.face, args.h_over_d, args.rp, width=args.width)
+    pred = predict(
+        design,
+        args.x0,
+        args.theta0,
+        y_start=args.y_start,
+        damping_ratio=args.damping_ratio,
+        margins=not args.no_margins,
+    )
+    if args.rrd:
+        from .recording import log_prediction, new_recording
+
+        rec = new_recording(path=args.rrd)
+        log_prediction(rec, pred)
+        rec.flush()
+        rec.disconnect()
+    if args.json:
+        print(json.dumps(_prediction_json(pred), default=_json_default))
+        return 0
+    w = design.width
+    print(f"{args.face}-Face H/D={design.h_over_d:g} r_p={design.r_p:g} D={w:g}")
+    print(f"start     x0={pred.x0:+.6g}  theta0={pred.theta0:+.6g} rad  y={pred.y_start:.6g}")
+    print(f"outcome   {pred.outcome.name}: {pred.reason}")
+    print(
+        f"final     phi_b={pred.phi_b:+.6f} rad  phi_m={pred.phi_m:+.6f} rad  "
+        f"pivot_m=({pred.pivot_m[0]:+.6g}, {pred.pivot_m[1]:.6g})"
+    )
+    if pred.margins is not None:
+        m = pred.margins
+        print(
+            f"margins   lateral -{m.lateral_minus:.4g} / +{m.lateral_plus:.4g}   "
+            f"angle -{m.angle_minus:.4g} / +{m.angle_plus:.4g} rad"
+        )
+    c = pred.counters
+    path = pred.path
+    phases = "" if path is None else ", ".join(sorted({_phase_name(p) for p in path.phase}))
+    print(
+        f"path      {0 if path is None else len(path)} samples, {c.steps} steps, "
+        f"{c.events} events, {c.contact_changes} contact changes; phases: {phases}"
+    )
+    return 0
+
+
+def _phase_name(code: int) -> str:
+    from .result import Phase
+
+    return Phase(int(code)).name.lower()
+
+
+def _json_default(o: object) -> object:
+    if isinstance(o, float | np.floating) and not math.isfinite(float(o)):
+        return str(float(o))
+    if isinstance(o, np.integer | np.floating):
+        return o.item()
+    raise TypeError(f"not serialisable: {type(o)}")
+
+
+def _map_json(amap: AcceptanceMap) -> dict[str, Any]:
+    names = np.array([o.name for o in Outcome])
+    return {
+        "face": amap.design.kind,
+        "h_over_d": amap.design.h_over_d,
+        "r_p": amap.design.r_p,
+        "width": amap.design.width,
+        "x0": amap.x0.tolist(),
+        "theta0": amap.theta0.tolist(),
+        "outcomes": names[amap.outcomes].tolist(),
+        "M": amap.M,
+        "counts": {o.name: n for o, n in amap.counts().items()},
+        "guaranteed": _rect_json(amap, amap.guaranteed),
+        "guaranteed_centred": _rect_json(amap, amap.centred),
+    }
+
+
+def _rect_json(amap: AcceptanceMap, rect: Any) -> dict[str, Any] | None:
+    extent = amap.region_extent(rect)
+    if extent is None:
+        return None
+    rows, cols = rect
+    return {
+        "rows": [rows.start, rows.stop],
+        "cols": [cols.start, cols.stop],
+        "cells": len(rows) * len(cols),
+        "x0": [extent[0], extent[1]],
+        "theta0": [extent[2], extent[3]],
+    }
+
+
+def _cmd_map(args: argparse.Namespace) -> int:
+    design = make_face(args.face, args.h_over_d, args.rp, width=args.width)
+    amap = acceptance_map(
+        design, grid=args.grid, theta_kind=args.theta_grid, damping_ratio=args.damping_ratio
+    )
+    if args.png:
+        from .mapimage import save_map_png
+
+        save_map_png(amap, args.png)
+    if args.rrd:
+        from .recording import log_acceptance_map, new_recording
+
+        rec = new_recording(path=args.rrd)
+        log_acceptance_map(rec, amap)
+        rec.flush()
+        rec.disconnect()
+    if args.json:
+        print(json.dumps(_map_json(amap)))
+        return 0
+    symbols = {
+        Outcome.SEATED: "#",
+        Outcome.BAD_MATE: ".",
+        Outcome.PASSED: "p",
+        Outcome.NO_CONTACT: "n",
+        Outcome.OUT_OF_REACH: "o",
+        Outcome.INVALID_INPUT: "!",
+        Outcome.UNRESOLVED: "?",
+    }
+    print(
+        f"{args.face}-Face H/D={design.h_over_d:g} r_p={design.r_p:g}: M = {amap.M} of "
+        f"{amap.outcomes.size}  (rows x0 from {amap.x0[0]:g} to {amap.x0[-1]:g}, "
+        f"columns theta0 from {amap.theta0[0]:.4g} to {amap.theta0[-1]:.4g} rad)"
+    )
+    for i, row in enumerate(amap.outcomes):
+        print(f"{amap.x0[i]:+8.4f} " + "".join(symbols[Outcome(int(c))] for c in row))
+    print("legend: " + "  ".join(f"{s} {o.name}" for o, s in symbols.items()))
+    for label, rect in (("guaranteed", amap.guaranteed), ("centred", amap.centred)):
+        ext = amap.region_extent(rect)
+        if ext is None:
+            print(f"{label}: none")
+        else:
+            rows, cols = rect  # type: ignore[misc]
+            print(
+                f"{label}: x0 in [{ext[0]:+.4g}, {ext[1]:+.4g}], theta0 in "
+                f"[{ext[2]:+.4f}, {ext[3]:+.4f}] rad ({len(rows)} x {len(cols)} cells)"
+            )
+    return 0
+
+
+def _table_for(face: str, args: argparse.Namespace) -> MTable:
+    method = args.method
+    if method == "bound" and face == "X":
+        method = "sim"  # the X-Face has no closed-form bound; the paper simulated it
+    theta: ThetaGridKind = args.theta_grid or ("paper" if method == "bound" else "symmetric")
+    return m_table(face, method=method, theta_kind=theta, workers=args.workers)
+
+
+def _cmd_table(args: argparse.Namespace) -> int:
+    faces = ["X", "V", "S"] if args.face == "ALL" else [args.face]
+    tables = {f: _table_for(f, args) for f in faces}
+    if args.json:
+        out = {
+            f: {
+                "face": f,
+                "method": t.method,
+                "theta_grid": t.theta_kind,
+                "h_over_d": t.h_over_d.tolist(),
+                "r_p": t.r_p.tolist(),
+                "M": t.M.tolist(),
+            }
+            for f, t in tables.items()
+        }
+        print(json.dumps(out[faces[0]] if len(faces) == 1 else out))
+        return 0
+    for f, t in tables.items():
+        paper = paper_table(f).M  # type: ignore[arg-type]
+        print(
+            f"M({f}-Face), {t.method} on the {t.theta_kind} theta grid: "
+            "ours / paper (difference); rows H/D, columns r_p"
+        )
+        print("H/D      " + "".join(f"{int(r):>16d}" for r in t.r_p))
+        for i, h in enumerate(t.h_over_d):
+            cells = []
+            for j in range(len(t.r_p)):
+                ours = int(t.M[i, j])
+                ref = paper[i, j]
+                cells.append(
+                    f"{ours:>6d}/   --     " if not np.isfinite(ref)
+                    else f"{ours:>6d}/{int(ref):<4d}({ours - int(ref):+4d})"
+                )
+            print(f"{h:<8g} " + "".join(f"{c:>16s}" for c in cells))
+        known = np.isfinite(paper)
+        same = int(np.count_nonzero(t.M[known] == paper[known]))
+        diff = np.abs(t.M[known] - paper[known])
+        print(
+            f"cells equal to the paper: {same} of {int(known.sum())}; "
+            f"max |dM| {int(diff.max())}, mean |dM| {diff.mean():.1f}\n"
+        )
+    if "X" in tables:
+        x = tables["X"].M.astype(float)
+        for other, paper_ratio in (("V", PAPER_MEAN_RATIO_XV), ("S", PAPER_MEAN_RATIO_XS)):
+            if other in tables:
+                ours = mean_ratio(x, tables[other].M.astype(float))
+                print(f"mean X/{other} ratio: {ours:.4f} (paper {paper_ratio})")
+    return 0
+
+
+def _cmd_bench(args: argparse.Namespace) -> int:
+    from .bench import run_bench
+
+    return run_bench(args)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of ``xface`` (exposed for the docs and the tests)."""
+    parser = argparse.ArgumentParser(
+        prog="xface", description="Predict passive docking of planar connector faces."
+    )
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    p = sub.add_parser("predict", help="predict one dock: outcome, reason, margins, path")
+    _design_args(p)
+    p.add_argument("--x0", type=float, required=True, help="lateral offset (length)")
+    p.add_argument("--theta0", type=float, required=True, help="initial angle (rad)")
+    p.add_argument("--y-start", type=float, default=None, help="start height (length)")
+    p.add_argument("--no-margins", action="store_true", help="skip the margin search")
+    p.add_argument("--rrd", default=None, help="write a rerun recording to this file")
+    p.set_defaults(func=_cmd_predict)
+
+    p = sub.add_parser("map", help="acceptance map of one design over a grid")
+    _design_args(p)
+    p.add_argument("--grid", type=int, default=41, help="nodes per axis (odd)")
+    p.add_argument("--theta-grid", choices=("symmetric", "paper"), default="symmetric")
+    p.add_argument("--png", default=None, help="write a PNG picture of the map")
+    p.add_argument("--rrd", default=None, help="write a rerun recording of the map")
+    p.set_defaults(func=_cmd_map)
+
+    p = sub.add_parser("table", help="the paper's M tables (rows H/D, columns r_p)")
+    p.add_argument("--face", type=str.upper, choices=("X", "V", "S", "ALL"), default="ALL")
+    p.add_argument("--method", choices=("sim", "bound"), default="sim")
+    p.add_argument(
+        "--theta-grid",
+        choices=("symmetric", "paper"),
+        default=None,
+        help="default: paper for bounds, symmetric for simulations",
+    )
+    p.add_argument("--workers", type=int, default=None, help="processes (default: all cores)")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=_cmd_table)
+
+    p = sub.add_parser("bench", help="work-precision benchmark and stress summary")
+    p.add_argument("--out", default="bench", help="output folder for the table and plot")
+    p.add_argument("--quick", action="store_true", help="fewer designs and settings")
+    p.set_defaults(func=_cmd_bench)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the ``xface`` console script."""
+    args = build_parser().parse_args(argv)
+    try:
+        result: int = args.func(args)
+    except XfaceError as exc:
+        print(f"xface: error: {exc}", file=sys.stderr)
+        return 2
+    return result
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
