@@ -184,6 +184,11 @@ class XfacePredictor(Node):
         self._recording_path = ""
         self._open_recording(self._config)
 
+        # Before the node offers anything: the first simulation loads (on a fresh checkout,
+        # compiles) the simulator, which can take tens of seconds; a node whose service is up
+        # answers promptly.
+        self._warm_up()
+
         input_group = MutuallyExclusiveCallbackGroup()
         service_group = MutuallyExclusiveCallbackGroup()
         timer_group = MutuallyExclusiveCallbackGroup()
@@ -266,7 +271,6 @@ class XfacePredictor(Node):
     # --- the worker -------------------------------------------------------------------------
 
     def _work(self) -> None:
-        self._warm_up()
         while not self._stop.is_set():
             item = self._slot.take(timeout_s=0.2)
             if item is None:
@@ -278,11 +282,17 @@ class XfacePredictor(Node):
 
     def _warm_up(self) -> None:
         """One prediction so the first real pose does not pay for loading compiled code."""
-        config = self.config
+        config = self._config
+        t0 = time.perf_counter()
         try:
-            predict(config.design, 0.0, 0.0, path=True, margins=config.need_margins)
+            # margins=True also loads the batch kernel the margin search and min_margin use.
+            predict(config.design, 0.0, 0.0, path=True, margins=True)
         except Exception as exc:  # reported again, per pose, by the worker loop
-            self.get_logger().warning(f"warm-up prediction failed: {exc}")
+            self.get_logger().warning(f"warm-up prediction failed: {exc!r}")
+            return
+        elapsed = time.perf_counter() - t0
+        if elapsed > 1.0:
+            self.get_logger().info(f"simulator loaded in {elapsed:.1f} s")
 
     def _process(self, item: Received[PoseStamped]) -> None:
         msg = item.message

@@ -49,8 +49,9 @@ DEFAULT_PARAMS_FILE = ROOT / "config" / "xface.yaml"
 NODE_NAME = "xface_predictor"
 BASE_FRAME = "xface_base"
 
-#: Generous: a cold start loads rclpy, Fast DDS and the compiled simulator on a shared machine.
-STARTUP_TIMEOUT_S = 120.0
+#: Generous: a cold start loads rclpy and Fast DDS, and on a fresh checkout the node compiles
+#: the simulator (numba) before it offers its service, on a shared machine.
+STARTUP_TIMEOUT_S = 300.0
 REPLY_TIMEOUT_S = 60.0
 
 M = TypeVar("M")
