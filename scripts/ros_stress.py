@@ -135,7 +135,7 @@ def run_stress(
 
     result: dict[str, Any] = {"rate_hz": rate_hz, "duration_s": duration_s}
     try:
-        deadline = time.monotonic() + 120.0
+        deadline = time.monotonic() + 300.0  # a fresh checkout compiles the simulator first
         while not (plan_client.service_is_ready() and pub.get_subscription_count() > 0):
             if node.poll() is not None or time.monotonic() > deadline:
                 raise RuntimeError(f"node did not come up (exit code {node.poll()})")

@@ -98,7 +98,7 @@ def main(argv: list[str] | None = None) -> int:
         record_path.unlink()  # a stale file from an earlier run would look like this run's
     print(
         f"xface demo: ROS_DOMAIN_ID={os.environ['ROS_DOMAIN_ID']}, discovery on localhost only; "
-        f"running {args.duration:g} s (Ctrl-C stops earlier)",
+        f"running {args.duration:g} s once the node is up (Ctrl-C stops earlier)",
         flush=True,
     )
     node = subprocess.Popen(_node_command(args, record_path), start_new_session=True)
@@ -143,9 +143,10 @@ def main(argv: list[str] | None = None) -> int:
         listener.create_subscription(DiagnosticStatus, "prediction/status", show, RESULT_QOS)
         client = listener.create_client(GetPlan, "predict")
         executor.add_node(listener)
+        print("xface demo: starting the node (a fresh checkout compiles the simulator first)")
         spin_thread = threading.Thread(target=executor.spin, daemon=True)
         spin_thread.start()
-        deadline = time.monotonic() + 120.0
+        deadline = time.monotonic() + 300.0  # a fresh checkout compiles the simulator first
         while not client.service_is_ready():
             if node.poll() is not None or time.monotonic() > deadline:
                 print("xface demo: the node did not come up", file=sys.stderr, flush=True)

@@ -48,7 +48,7 @@ def test_node_refuses_to_start_with_a_bad_parameter(
     launch: Any, overrides: dict[str, Any], extra_args: list[str], match: str
 ) -> None:
     running = launch(wait=False, extra_args=extra_args, **overrides)
-    code = running.node.wait_exit(timeout_s=120.0)
+    code = running.node.wait_exit(timeout_s=300.0)
     log = running.node.log()
     assert code == 2, log
     assert "refusing to start" in log
