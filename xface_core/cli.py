@@ -27,7 +27,9 @@ from .sweep import AcceptanceMap, MTable, acceptance_map, m_table
 __all__ = ["main"]
 
 
-def _design_args(p: argparse.ArgumentParser, *, face_choices: Sequence[str] = ("X", "V", "S")) -> None:
+def _design_args(
+    p: argparse.ArgumentParser, *, face_choices: Sequence[str] = ("X", "V", "S")
+) -> None:
     p.add_argument("--face", type=str.upper, choices=face_choices, default="X")
     p.add_argument("--h-over-d", type=float, default=0.25, help="profile height H / width D")
     p.add_argument("--rp", type=float, default=2.0, help="pivot to profile base, in widths D")
@@ -246,7 +248,8 @@ def _cmd_table(args: argparse.Namespace) -> int:
                 ours = int(t.M[i, j])
                 ref = paper[i, j]
                 cells.append(
-                    f"{ours:>6d}/   --     " if not np.isfinite(ref)
+                    f"{ours:>6d}/   --     "
+                    if not np.isfinite(ref)
                     else f"{ours:>6d}/{int(ref):<4d}({ours - int(ref):+4d})"
                 )
             print(f"{h:<8g} " + "".join(f"{c:>16s}" for c in cells))
@@ -261,8 +264,8 @@ def _cmd_table(args: argparse.Namespace) -> int:
         x = tables["X"].M.astype(float)
         for other, paper_ratio in (("V", PAPER_MEAN_RATIO_XV), ("S", PAPER_MEAN_RATIO_XS)):
             if other in tables:
-                ours = mean_ratio(x, tables[other].M.astype(float))
-                print(f"mean X/{other} ratio: {ours:.4f} (paper {paper_ratio})")
+                ratio = mean_ratio(x, tables[other].M.astype(float))
+                print(f"mean X/{other} ratio: {ratio:.4f} (paper {paper_ratio})")
     return 0
 
 

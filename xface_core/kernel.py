@@ -115,14 +115,16 @@ E1, E3, E4, E5, E6, E7 = (
 
 
 @njit(cache=True)
-def _eval(table: FloatArray, i: int, pb: float, pm: float, x0: float, ym: float) -> tuple[
-    float, float, float, float, float, float, float, float, float
-]:
+def _eval(
+    table: FloatArray, i: int, pb: float, pm: float, x0: float, ym: float
+) -> tuple[float, float, float, float, float, float, float, float, float]:
     return eval_pair(table[i], math.cos(pb), math.sin(pb), math.cos(pm), math.sin(pm), x0, ym)
 
 
 @njit(cache=True)
-def _eval_all(table: FloatArray, pb: float, pm: float, x0: float, ym: float, out: FloatArray) -> None:
+def _eval_all(
+    table: FloatArray, pb: float, pm: float, x0: float, ym: float, out: FloatArray
+) -> None:
     cb, sb, cm, sm = math.cos(pb), math.sin(pb), math.cos(pm), math.sin(pm)
     for i in range(table.shape[0]):
         g, u, ab, am, be, _px, _py, _nx, _ny = eval_pair(table[i], cb, sb, cm, sm, x0, ym)
@@ -240,7 +242,7 @@ def _velocity(
 
     Non-finite rates signal a singular configuration (a contact normal through both pivots).
     """
-    g1, u1, ab1, am1, b1, _, _, _, _ = _eval(table, act[0], pb, pm, x0, ym)
+    _, _, ab1, am1, b1, _, _, _, _ = _eval(table, act[0], pb, pm, x0, ym)
     ab1 *= sqb
     am1 *= sqm
     if nact == 1:
@@ -249,7 +251,7 @@ def _velocity(
             return math.nan, math.nan, math.nan, 0.0
         lam = b1 / nn
         return lam * ab1 * sqb, lam * am1 * sqm, lam, 0.0
-    g2, u2, ab2, am2, b2, _, _, _, _ = _eval(table, act[1], pb, pm, x0, ym)
+    _, _, ab2, am2, b2, _, _, _, _ = _eval(table, act[1], pb, pm, x0, ym)
     ab2 *= sqb
     am2 *= sqm
     det = ab1 * am2 - am1 * ab2
@@ -690,7 +692,9 @@ def _choose_motion(
                 st, na, tb, tm = _solve_qp(ev, hard, nh + extra, sqb, sqm, 1e-9, trial)
                 if st != 0 or not _corners_hold(table, corner, n_corner, pb, pm, x0, ym, tb, tm):
                     continue
-                cost = (tb * tb if sqb > 0.0 else 0.0) / max(sqb * sqb, TINY) + tm * tm / (sqm * sqm)
+                cost = (tb * tb if sqb > 0.0 else 0.0) / max(sqb * sqb, TINY) + tm * tm / (
+                    sqm * sqm
+                )
                 if cost < best:
                     found = True
                     best = cost
@@ -826,9 +830,7 @@ def simulate(
         # ---- start of an interval: which contacts act, and how do the parts move? ----------
         _eval_all(table, pb, pm, x0, ym, ev)
         nc = _touching(ev, touch_tol, exclude, n_ex, cand)
-        status, new_nact, vb, vm = _choose_motion(
-            table, ev, cand, nc, pb, pm, x0, ym, sqb, sqm, act
-        )
+        status, new_nact, _, _ = _choose_motion(table, ev, cand, nc, pb, pm, x0, ym, sqb, sqm, act)
         if status == 1:
             # Blocked: no descent is possible any more.
             n = _record(path, path_pairs, n, ym, pb, pm, P_END, act, 0)
@@ -903,12 +905,11 @@ def simulate(
                     if _is_seated(pb, pm, x0, ym, L, seat_tol):
                         return O_SEATED, R_SEATED, pb, pm, ym, steps, events, changes, rejected, n
                     return O_BAD_MATE, R_SINGULAR, pb, pm, ym, steps, events, changes, rejected, n
-                h = max(h * max(0.2, 0.9 * err ** -0.2), 0.5 * event_tol) if ok else h * 0.25
+                h = max(h * max(0.2, 0.9 * err**-0.2), 0.5 * event_tol) if ok else h * 0.25
                 continue
             # ---- events in this step? ------------------------------------------------------
             ev_kind = E_NONE
             ev_idx = -1
-            ev_slot = 0
             ev_h = h
             ym1 = ym - h
             # active contacts: release (lambda < 0) and leaving the edge
@@ -917,8 +918,24 @@ def simulate(
                 lam = l1 if k == 0 else l2
                 if lam < 0.0:
                     lo, hk = _locate(
-                        table, E_RELEASE, act[k], k, 0.0, act, nact, pb, pm, x0, ym, h,
-                        sqb, sqm, winv_b, winv_m, y_floor, event_tol,
+                        table,
+                        E_RELEASE,
+                        act[k],
+                        k,
+                        0.0,
+                        act,
+                        nact,
+                        pb,
+                        pm,
+                        x0,
+                        ym,
+                        h,
+                        sqb,
+                        sqm,
+                        winv_b,
+                        winv_m,
+                        y_floor,
+                        event_tol,
                     )
                     kind = E_RELEASE
                     pbk, pmk, _, _, _ = _rk_step(
@@ -932,15 +949,31 @@ def simulate(
                         kind = E_TURN
                         hk = lo
                     if hk < ev_h or ev_kind == E_NONE:
-                        ev_kind, ev_idx, ev_slot, ev_h = kind, act[k], k, hk
+                        ev_kind, ev_idx, ev_h = kind, act[k], hk
                 _, u, _, _, _, _, _, _, _ = _eval(table, act[k], nb, nm, x0, ym1)
                 if u < -U_TOL or u > 1.0 + U_TOL:
                     _, hk = _locate(
-                        table, E_OFF_EDGE, act[k], k, 0.0, act, nact, pb, pm, x0, ym, h,
-                        sqb, sqm, winv_b, winv_m, y_floor, event_tol,
+                        table,
+                        E_OFF_EDGE,
+                        act[k],
+                        k,
+                        0.0,
+                        act,
+                        nact,
+                        pb,
+                        pm,
+                        x0,
+                        ym,
+                        h,
+                        sqb,
+                        sqm,
+                        winv_b,
+                        winv_m,
+                        y_floor,
+                        event_tol,
                     )
                     if hk < ev_h or ev_kind == E_NONE:
-                        ev_kind, ev_idx, ev_slot, ev_h = E_OFF_EDGE, act[k], k, hk
+                        ev_kind, ev_idx, ev_h = E_OFF_EDGE, act[k], hk
             # inactive pairs: new contacts (the gap crosses its threshold inside the edge)
             cb1, sb1, cm1, sm1 = math.cos(nb), math.sin(nb), math.cos(nm), math.sin(nm)
             for i in range(npairs):
@@ -954,8 +987,24 @@ def simulate(
                 if (u1 < -0.5 and u_prev[i] < -0.5) or (u1 > 1.5 and u_prev[i] > 1.5):
                     continue
                 _, hk = _locate(
-                    table, E_CONTACT, i, 0, thr[i], act, nact, pb, pm, x0, ym, h,
-                    sqb, sqm, winv_b, winv_m, y_floor, event_tol,
+                    table,
+                    E_CONTACT,
+                    i,
+                    0,
+                    thr[i],
+                    act,
+                    nact,
+                    pb,
+                    pm,
+                    x0,
+                    ym,
+                    h,
+                    sqb,
+                    sqm,
+                    winv_b,
+                    winv_m,
+                    y_floor,
+                    event_tol,
                 )
                 if ev_kind != E_NONE and hk >= ev_h:
                     continue
@@ -966,21 +1015,53 @@ def simulate(
                 # A vertex crossing a line just beyond the edge's end is meeting the corner
                 # there (e.g. a tip reaching the bottom of a notch): that is a contact too.
                 if -U_CORNER <= uk <= 1.0 + U_CORNER:
-                    ev_kind, ev_idx, ev_slot, ev_h = E_CONTACT, i, 0, hk
+                    ev_kind, ev_idx, ev_h = E_CONTACT, i, hk
             if ym1 < y_floor:
                 _, hk = _locate(
-                    table, E_BELOW_SEAT, -1, 0, 0.0, act, nact, pb, pm, x0, ym, h,
-                    sqb, sqm, winv_b, winv_m, y_floor, event_tol,
+                    table,
+                    E_BELOW_SEAT,
+                    -1,
+                    0,
+                    0.0,
+                    act,
+                    nact,
+                    pb,
+                    pm,
+                    x0,
+                    ym,
+                    h,
+                    sqb,
+                    sqm,
+                    winv_b,
+                    winv_m,
+                    y_floor,
+                    event_tol,
                 )
                 if hk < ev_h or ev_kind == E_NONE:
-                    ev_kind, ev_idx, ev_slot, ev_h = E_BELOW_SEAT, -1, 0, hk
+                    ev_kind, ev_idx, ev_h = E_BELOW_SEAT, -1, hk
             if max(abs(nb), abs(nm)) > math.pi:
                 _, hk = _locate(
-                    table, E_SPUN, -1, 0, 0.0, act, nact, pb, pm, x0, ym, h,
-                    sqb, sqm, winv_b, winv_m, y_floor, event_tol,
+                    table,
+                    E_SPUN,
+                    -1,
+                    0,
+                    0.0,
+                    act,
+                    nact,
+                    pb,
+                    pm,
+                    x0,
+                    ym,
+                    h,
+                    sqb,
+                    sqm,
+                    winv_b,
+                    winv_m,
+                    y_floor,
+                    event_tol,
                 )
                 if hk < ev_h or ev_kind == E_NONE:
-                    ev_kind, ev_idx, ev_slot, ev_h = E_SPUN, -1, 0, hk
+                    ev_kind, ev_idx, ev_h = E_SPUN, -1, hk
             if ev_kind == E_NONE:
                 n_ex = 0
                 g_prev[:] = g_next
@@ -989,7 +1070,7 @@ def simulate(
                 pb, pm, ym = nb, nm, ym1
                 phase = P_SLIDE if abs(pb - pm) <= ALIGN_TOL else P_ALIGN
                 n = _record(path, path_pairs, n, ym, pb, pm, phase, act, nact)
-                fac = 5.0 if err == 0.0 else min(5.0, max(0.2, 0.9 * err ** -0.2))
+                fac = 5.0 if err == 0.0 else min(5.0, max(0.2, 0.9 * err**-0.2))
                 h = h * fac
                 continue
             # ---- advance to the event and act on it ------------------------------------------
@@ -1029,7 +1110,7 @@ def simulate(
                 return O_BAD_MATE, R_SPUN, pb, pm, ym, steps, events, changes, rejected, n
             if ev_h > 1e-7:
                 n_ex = 0
-            if ev_kind == E_RELEASE or ev_kind == E_OFF_EDGE:
+            if ev_kind == E_RELEASE or ev_kind == E_OFF_EDGE:  # noqa: SIM109 (numba)
                 if n_ex < exclude.shape[0]:
                     exclude[n_ex] = ev_idx
                     n_ex += 1
@@ -1074,7 +1155,9 @@ def _locate(
     f_lo = _event_value(table, kind, idx, slot, thr, act, nact, pb, pm, x0, ym, sqb, sqm, y_floor)
     hi = h
     nb, nm, _, _, _ = _rk_step(table, act, nact, pb, pm, x0, ym, hi, sqb, sqm, winv_b, winv_m)
-    f_hi = _event_value(table, kind, idx, slot, thr, act, nact, nb, nm, x0, ym - hi, sqb, sqm, y_floor)
+    f_hi = _event_value(
+        table, kind, idx, slot, thr, act, nact, nb, nm, x0, ym - hi, sqb, sqm, y_floor
+    )
     if not f_lo > 0.0:
         return 0.0, 0.0
     side = 0

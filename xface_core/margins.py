@@ -37,7 +37,7 @@ def _flip_distance(
 ) -> float:
     """Distance along one axis (0: x0 in D, 1: theta0) to the first node whose outcome
     differs from ``outcome``, scanned coarsely (one batch) then bisected; inf if none."""
-    offsets = np.arange(1, int(math.ceil(limit / step)) + 1) * step
+    offsets = np.arange(1, math.ceil(limit / step) + 1) * step
     xs = np.full(offsets.shape, x0)
     ts = np.full(offsets.shape, theta0)
     (xs if axis == 0 else ts)[:] += direction * offsets * (design.width if axis == 0 else 1.0)
@@ -49,9 +49,13 @@ def _flip_distance(
     lo = hi - step
     while hi - lo > resolution:
         mid = 0.5 * (lo + hi)
-        x, t = (x0 + direction * mid * design.width, theta0) if axis == 0 else (
-            x0,
-            theta0 + direction * mid,
+        x, t = (
+            (x0 + direction * mid * design.width, theta0)
+            if axis == 0
+            else (
+                x0,
+                theta0 + direction * mid,
+            )
         )
         code = predict_batch(
             design, [x], [t], damping_ratio=damping_ratio, settings=settings
@@ -91,15 +95,31 @@ def outcome_margins(
     lateral_limit = 2.0 * design.mated_distance
     lat = [
         _flip_distance(
-            design, x0, theta0, outcome, axis=0, direction=s, limit=lateral_limit,
-            step=LATERAL_STEP, resolution=LATERAL_RESOLUTION, **common,  # type: ignore[arg-type]
+            design,
+            x0,
+            theta0,
+            outcome,
+            axis=0,
+            direction=s,
+            limit=lateral_limit,
+            step=LATERAL_STEP,
+            resolution=LATERAL_RESOLUTION,
+            **common,  # type: ignore[arg-type]
         )
         for s in (-1.0, 1.0)
     ]
     ang = [
         _flip_distance(
-            design, x0, theta0, outcome, axis=1, direction=s, limit=math.pi,
-            step=ANGLE_STEP, resolution=ANGLE_RESOLUTION, **common,  # type: ignore[arg-type]
+            design,
+            x0,
+            theta0,
+            outcome,
+            axis=1,
+            direction=s,
+            limit=math.pi,
+            step=ANGLE_STEP,
+            resolution=ANGLE_RESOLUTION,
+            **common,  # type: ignore[arg-type]
         )
         for s in (-1.0, 1.0)
     ]

@@ -106,8 +106,10 @@ DEFAULT_SETTINGS = SolverSettings()
 
 def _check_physics(damping_ratio: float, friction: float) -> None:
     if not (damping_ratio > 0.0):  # also rejects NaN
-        raise XfaceValueError(f"damping_ratio must be > 0 (inf locks the base), got {damping_ratio}")
-    if not (friction == 0.0):
+        raise XfaceValueError(
+            f"damping_ratio must be > 0 (inf locks the base), got {damping_ratio}"
+        )
+    if friction != 0.0:
         if not (math.isfinite(friction) and friction > 0.0):
             raise XfaceValueError(f"friction must be a finite value >= 0, got {friction}")
         raise XfaceValueError(
@@ -224,7 +226,9 @@ def predict(
         phi_m=float(pm),
         pivot_m=(float(x0), float(ym) * w),
         counters=Counters(
-            steps=int(steps), events=int(events), contact_changes=int(changes),
+            steps=int(steps),
+            events=int(events),
+            contact_changes=int(changes),
             rejected_steps=int(rejected),
         ),
         path=alignment,
@@ -235,8 +239,12 @@ def predict(
         prediction = replace(
             prediction,
             margins=outcome_margins(
-                design, x0, theta0, prediction.outcome,
-                damping_ratio=damping_ratio, settings=settings,
+                design,
+                x0,
+                theta0,
+                prediction.outcome,
+                damping_ratio=damping_ratio,
+                settings=settings,
             ),
         )
     return prediction
@@ -276,7 +284,9 @@ def predict_batch(
     ['SEATED', 'SEATED', 'INVALID_INPUT']
     """
     _check_physics(damping_ratio, friction)
-    xb, tb = np.broadcast_arrays(np.asarray(x0, dtype=np.float64), np.asarray(theta0, dtype=np.float64))
+    xb, tb = np.broadcast_arrays(
+        np.asarray(x0, dtype=np.float64), np.asarray(theta0, dtype=np.float64)
+    )
     xs = (xb / design.width).ravel()
     ts = tb.ravel()
     table = pair_table(design)
@@ -302,11 +312,22 @@ def _run_flat(
     ts: FloatArray,
     settings: SolverSettings,
     damping_ratio: float,
-) -> tuple[npt.NDArray[np.int8], FloatArray, FloatArray, npt.NDArray[np.int64], npt.NDArray[np.int64]]:
+) -> tuple[
+    npt.NDArray[np.int8], FloatArray, FloatArray, npt.NDArray[np.int64], npt.NDArray[np.int64]
+]:
     """Run the kernel over flat arrays of x0 (units of D) and theta0."""
     ys = np.array([start_height(design, t) if math.isfinite(t) else 0.0 for t in ts])
-    valid = np.isfinite(xs) & np.isfinite(ts) & (np.abs(xs) <= MAX_OFFSET) & (np.abs(ts) <= 2 * np.pi)
+    valid = (
+        np.isfinite(xs) & np.isfinite(ts) & (np.abs(xs) <= MAX_OFFSET) & (np.abs(ts) <= 2 * np.pi)
+    )
     return K.simulate_many(
-        table, base_edges, moving_edges, design.mated_distance, xs, ts, ys, valid,
+        table,
+        base_edges,
+        moving_edges,
+        design.mated_distance,
+        xs,
+        ts,
+        ys,
+        valid,
         settings.vector(damping_ratio),
     )
