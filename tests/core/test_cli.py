@@ -33,7 +33,8 @@ def test_predict_json_has_outcome_reason_margins_path(capsys: pytest.CaptureFixt
             "--json",
         ],
     )
-    assert out["outcome"] == "SEATED" and out["seated"] is True
+    assert out["outcome"] == "SEATED"
+    assert out["seated"] is True
     assert out["reason"]
     assert set(out["margins"]) >= {"lateral", "angle"}
     assert out["path"]["samples"] == len(out["path"]["phi_m"])
@@ -41,10 +42,13 @@ def test_predict_json_has_outcome_reason_margins_path(capsys: pytest.CaptureFixt
 
 def test_map_json_contract(capsys: pytest.CaptureFixture[str]) -> None:
     out = _json(capsys, ["map", "--face", "X", "--h-over-d", "0.0625", "--rp", "1", "--json"])
-    assert len(out["x0"]) == 41 and len(out["theta0"]) == 41
-    assert out["x0"][0] == -1.0 and out["x0"][-1] == 1.0
+    assert len(out["x0"]) == 41
+    assert len(out["theta0"]) == 41
+    assert out["x0"][0] == -1.0
+    assert out["x0"][-1] == 1.0
     assert out["theta0"][0] == pytest.approx(-math.pi / 2)
-    assert len(out["outcomes"]) == 41 and len(out["outcomes"][0]) == 41
+    assert len(out["outcomes"]) == 41
+    assert len(out["outcomes"][0]) == 41
     assert out["M"] == sum(row.count("SEATED") for row in out["outcomes"])
 
 
@@ -57,7 +61,8 @@ def test_table_bound_json_matches_table_iii(capsys: pytest.CaptureFixture[str]) 
     from xface_core.paper import paper_table
 
     out = _json(capsys, ["table", "--face", "V", "--method", "bound", "--json"])
-    assert len(out["h_over_d"]) == 11 and len(out["r_p"]) == 11
+    assert len(out["h_over_d"]) == 11
+    assert len(out["r_p"]) == 11
     assert out["M"] == paper_table("V").M.astype(int).tolist()
 
 

@@ -43,7 +43,8 @@ def test_out_of_reach_is_decided_without_simulation() -> None:
     design = xf.x_face(0.0625, 0.0)  # L = 0.0625 D
     p = xf.predict(design, 0.5, 0.0)
     assert p.outcome is Outcome.OUT_OF_REACH
-    assert p.counters.steps == 0 and p.counters.events == 0
+    assert p.counters.steps == 0
+    assert p.counters.events == 0
 
 
 def test_large_angle_passes_beside_the_base_as_bad_mate() -> None:
@@ -94,7 +95,8 @@ def test_batch_equals_scalar_bitwise() -> None:
     for k in range(40):
         p = xf.predict(design, float(x0[k]), float(th[k]), path=False)
         assert batch.outcome[k] == p.outcome
-        assert batch.phi_b[k] == p.phi_b and batch.phi_m[k] == p.phi_m
+        assert batch.phi_b[k] == p.phi_b
+        assert batch.phi_m[k] == p.phi_m
 
 
 def test_batch_marks_bad_entries_invalid() -> None:

@@ -35,19 +35,22 @@ def test_s_face_is_not_treated_as_mirror_symmetric() -> None:
 
 def test_maps_do_not_depend_on_the_unit() -> None:
     maps = [xf.acceptance_map(xf.v_face(0.5, 1.0, width=w)).outcomes for w in (1e-3, 1.0, 1e3)]
-    assert np.array_equal(maps[0], maps[1]) and np.array_equal(maps[1], maps[2])
+    assert np.array_equal(maps[0], maps[1])
+    assert np.array_equal(maps[1], maps[2])
 
 
 def test_map_axes_follow_the_paper_layout() -> None:
     amap = xf.acceptance_map(xf.x_face(0.25, 1.0, width=2.0))
     assert amap.outcomes.shape == (41, 41)
-    assert amap.x0[0] == -2.0 and amap.x0[-1] == 2.0
-    assert amap.theta0[0] == pytest.approx(-np.pi / 2) and amap.theta0[20] == 0.0
+    assert amap.x0[0] == -2.0
+    assert amap.x0[-1] == 2.0
+    assert amap.theta0[0] == pytest.approx(-np.pi / 2)
+    assert amap.theta0[20] == 0.0
 
 
 def test_m_counts_seated_cells() -> None:
     amap = xf.acceptance_map(xf.s_face(1.0, 2.0))
-    assert amap.M == int((amap.outcomes == Outcome.SEATED).sum())
+    assert int((amap.outcomes == Outcome.SEATED).sum()) == amap.M
     assert sum(amap.counts().values()) == 41 * 41
 
 
@@ -57,7 +60,8 @@ def test_guaranteed_rectangle_is_all_seated_and_maximal_in_area() -> None:
     assert (amap.outcomes[rows.start : rows.stop, cols.start : cols.stop] == Outcome.SEATED).all()
     assert len(rows) * len(cols) >= 1
     crow, ccol = amap.centred
-    assert crow.start + crow.stop - 1 == 40 and ccol.start + ccol.stop - 1 == 40
+    assert crow.start + crow.stop - 1 == 40
+    assert ccol.start + ccol.stop - 1 == 40
     assert len(rows) * len(cols) >= len(crow) * len(ccol)
 
 
