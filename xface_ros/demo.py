@@ -125,7 +125,8 @@ def main(argv: list[str] | None = None) -> int:
             print(f"[{t:5.1f} s] input rejected: {status.message}", flush=True)
             return
         margin = values.get("margin_m", "")
-        extra = f"margin {float(margin):.4f} m" if margin not in ("", None) else ""
+        # The margin of a rejected pose is the distance to another outcome, not to a seat.
+        extra = f"margin {float(margin):.4f} m" if margin and is_accepted else ""
         verdict = "accepted" if is_accepted else "rejected"
         x0, theta0 = float(values["x0_m"]), float(values["theta0_rad"])
         compute_ms = float(values["compute_time_ms"])
