@@ -562,14 +562,15 @@ def _record(
     act: IntArray,
     nact: int,
 ) -> int:
-    if n >= path.shape[0]:
-        n = path.shape[0] - 1  # keep the last sample exact, drop the middle
-    path[n, 0] = ym
-    path[n, 1] = pb
-    path[n, 2] = pm
-    path[n, 3] = phase
+    # Past the end of the buffer the last row is overwritten (so it always holds the final
+    # state) while the count keeps growing: the caller sees the overflow and can re-run.
+    row = min(n, path.shape[0] - 1)
+    path[row, 0] = ym
+    path[row, 1] = pb
+    path[row, 2] = pm
+    path[row, 3] = phase
     for k in range(4):
-        pairs[n, k] = act[k] if k < nact else -1
+        pairs[row, k] = act[k] if k < nact else -1
     return n + 1
 
 
@@ -984,7 +985,10 @@ def simulate(
                     continue
                 if g1 > thr[i] or g_prev[i] <= thr[i]:
                     continue
-                if (u1 < -0.5 and u_prev[i] < -0.5) or (u1 > 1.5 and u_prev[i] > 1.5):
+                # Where along the edge does the vertex cross its line?  (Linear estimate; the
+                # exact check follows the root finding.)  Far outside the span: not a contact.
+                u_est = u_prev[i] + (u1 - u_prev[i]) * (g_prev[i] - thr[i]) / (g_prev[i] - g1)
+                if u_est < -0.25 or u_est > 1.25:
                     continue
                 _, hk = _locate(
                     table,
@@ -1017,26 +1021,8 @@ def simulate(
                 if -U_CORNER <= uk <= 1.0 + U_CORNER:
                     ev_kind, ev_idx, ev_h = E_CONTACT, i, hk
             if ym1 < y_floor:
-                _, hk = _locate(
-                    table,
-                    E_BELOW_SEAT,
-                    -1,
-                    0,
-                    0.0,
-                    act,
-                    nact,
-                    pb,
-                    pm,
-                    x0,
-                    ym,
-                    h,
-                    sqb,
-                    sqm,
-                    winv_b,
-                    winv_m,
-                    y_floor,
-                    event_tol,
-                )
+                # y_M falls linearly with the descent: the crossing is known exactly.
+                hk = ym - y_floor
                 if hk < ev_h or ev_kind == E_NONE:
                     ev_kind, ev_idx, ev_h = E_BELOW_SEAT, -1, hk
             if max(abs(nb), abs(nm)) > math.pi:
@@ -1071,7 +1057,8 @@ def simulate(
                 phase = P_SLIDE if abs(pb - pm) <= ALIGN_TOL else P_ALIGN
                 n = _record(path, path_pairs, n, ym, pb, pm, phase, act, nact)
                 fac = 5.0 if err == 0.0 else min(5.0, max(0.2, 0.9 * err**-0.2))
-                h = h * fac
+                # Keep the next step inside the per-step turn cap instead of having it rejected.
+                h = min(h * fac, 0.9 * MAX_TURN * h / max(turn, TINY))
                 continue
             # ---- advance to the event and act on it ------------------------------------------
             if ev_kind == E_TURN:

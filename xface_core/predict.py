@@ -23,6 +23,9 @@ __all__ = ["REASONS", "BatchResult", "SolverSettings", "predict", "predict_batch
 
 FloatArray = npt.NDArray[np.float64]
 
+#: Path samples allocated up front; longer paths trigger one re-run with an exact buffer.
+PATH_BUFFER = 256
+
 #: Largest accepted |x0| and |y_start|, in widths D: beyond this the geometry is absurd
 #: and double precision cannot resolve the contact.
 MAX_OFFSET = 1.0e6
@@ -188,21 +191,28 @@ def predict(
     x0_d = x0 / w
     y0_d = start_height(design, theta0) if y_start is None else y_start / w
     table = pair_table(design)
-    n_buf = settings.max_steps + 2 * settings.max_events + 8 if path else 1
-    buf = np.zeros((n_buf, 4))
-    pairs = np.full((n_buf, 4), -1, dtype=np.int64)
-    out = K.simulate(
-        table.data,
-        table.base_edges,
-        table.moving_edges,
-        design.mated_distance,
-        x0_d,
-        float(theta0),
-        y0_d,
-        settings.vector(damping_ratio),
-        buf,
-        pairs,
-    )
+    vector = settings.vector(damping_ratio)
+    n_buf = PATH_BUFFER if path else 1
+    while True:
+        buf = np.empty((n_buf, 4))
+        pairs = np.empty((n_buf, 4), dtype=np.int64)
+        out = K.simulate(
+            table.data,
+            table.base_edges,
+            table.moving_edges,
+            design.mated_distance,
+            x0_d,
+            float(theta0),
+            y0_d,
+            vector,
+            buf,
+            pairs,
+        )
+        # A path longer than the buffer: run again with room for all of it (the kernel is
+        # deterministic, so the second run is the same run).
+        if not path or out[-1] <= n_buf:
+            break
+        n_buf = int(out[-1])
     code, reason, pb, pm, ym, steps, events, changes, rejected, n = out
     alignment = None
     if path:
