@@ -169,7 +169,8 @@ def _work_precision(
             )
             print(
                 f"rtol={rtol:.0e} sym={symmetry!s:5} {t_map * 1e3:8.1f} ms/map  "
-                f"state err {max(err_state):.1e} (p99 {max(err_p99):.1e})  event err {max(err_event):.1e}  "
+                f"state err {max(err_state):.1e} (p99 {max(err_p99):.1e})  "
+                f"event err {max(err_event):.1e}  "
                 f"penetration {max(pen):.1e}  mismatches {mism_nb} (+{mism_b} on boundaries)",
                 flush=True,
             )
