@@ -278,7 +278,16 @@ class XfacePredictor(Node):
             try:
                 self._process(item)
             except Exception as exc:  # a bug in one prediction must not end the stream
-                self._reject(item.message, InputRejected("internal_error", repr(exc)))
+                if not self.context.ok():
+                    return  # shutdown under way: the publishers are gone, nothing to report
+                self._report_internal_error(item.message, exc)
+
+    def _report_internal_error(self, msg: PoseStamped, exc: Exception) -> None:
+        try:
+            self._reject(msg, InputRejected("internal_error", repr(exc)))
+        except Exception:
+            if self.context.ok():  # not a shutdown race: a real failure, keep its traceback
+                raise
 
     def _warm_up(self) -> None:
         """One prediction so the first real pose does not pay for loading compiled code."""

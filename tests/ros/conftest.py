@@ -366,27 +366,28 @@ def launch(ros_domain_id: int, tmp_path: Path) -> Iterator[Callable[..., Running
     Everything started is stopped at teardown; a node that is still running then must exit
     with code 0 on SIGINT.
     """
-    started: list[Running] = []
+    nodes: list[NodeProcess] = []
+    clients: list[RosClient] = []
 
     def _launch(
         *, wait: bool = True, extra_args: list[str] | None = None, **overrides: Any
     ) -> Running:
-        n = len(started)
+        n = len(nodes)
         params = write_params(tmp_path / f"params{n}.yaml", **overrides)
         node = start_node_process(ros_domain_id, params, tmp_path / f"node{n}.log", extra_args)
+        nodes.append(node)  # before anything else can fail: teardown always stops it
         client = RosClient(ros_domain_id)
-        running = Running(node, client, ros_domain_id, params)
-        started.append(running)
+        clients.append(client)
         if wait:
             client.wait_for_node(node)
-        return running
+        return Running(node, client, ros_domain_id, params)
 
     yield _launch
-    for running in started:
-        running.client.close()
-        if running.node.process.poll() is None:
-            code = running.node.stop(signal.SIGINT)
-            assert code == 0, running.node.log()
+    for client in clients:
+        client.close()
+    codes = [node.stop(signal.SIGINT) if node.process.poll() is None else None for node in nodes]
+    for node, code in zip(nodes, codes, strict=True):
+        assert code in (None, 0), node.log()
 
 
 @pytest.fixture(scope="module")
@@ -398,11 +399,13 @@ def shared_node(
     tmp = tmp_path_factory.mktemp("shared_node")
     params = write_params(tmp / "params.yaml")
     node = start_node_process(domain_id, params, tmp / "node.log")
-    client = RosClient(domain_id)
+    client: RosClient | None = None
     try:
+        client = RosClient(domain_id)
         client.wait_for_node(node)
         yield Running(node, client, domain_id, params)
     finally:
-        client.close()
+        if client is not None:
+            client.close()
         code = node.stop(signal.SIGINT)
         assert code == 0, node.log()
