@@ -73,6 +73,17 @@ def _node_command(args: argparse.Namespace, record_path: Path | None) -> list[st
     return command
 
 
+def _shared_parameters(params_file: Path | None) -> dict[str, object]:
+    """The node parameters the pose source must agree with (face width, frame)."""
+    if params_file is None:
+        return {}
+    import yaml
+
+    data = yaml.safe_load(params_file.read_text(encoding="utf-8")) or {}
+    node_params = data.get("xface_predictor", data.get("/**", {})).get("ros__parameters", {})
+    return {k: node_params[k] for k in ("width_m", "base_frame") if k in node_params}
+
+
 def _raise_keyboard_interrupt(signum: int, frame: FrameType | None) -> None:
     raise KeyboardInterrupt
 
@@ -153,7 +164,12 @@ def main(argv: list[str] | None = None) -> int:
                 print("xface demo: the node did not come up", file=sys.stderr, flush=True)
                 return 1
             time.sleep(0.1)
-        source = PoseSource(parameter_overrides=[Parameter("rate_hz", value=args.rate)])
+        source = PoseSource(
+            parameter_overrides=[
+                Parameter("rate_hz", value=args.rate),
+                *(Parameter(k, value=v) for k, v in _shared_parameters(args.params_file).items()),
+            ]
+        )
         executor.add_node(source)
         print(f"xface demo: node ready after {time.monotonic() - started:.1f} s", flush=True)
         end = time.monotonic() + args.duration
