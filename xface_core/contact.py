@@ -76,7 +76,9 @@ def _pairs(vertices: FloatArray, edges: FloatArray, kind: int) -> FloatArray:
 def _pair_table_cached(key: tuple[object, ...], design: FaceDesign) -> PairTable:
     del key  # only the cache key
     tables, base_edges, moving_edges = [], [], []
-    for layer, (base, moving) in enumerate(zip(design.base_layers, design.moving_layers, strict=True)):
+    for layer, (base, moving) in enumerate(
+        zip(design.base_layers, design.moving_layers, strict=True)
+    ):
         be, me = _edges(base, layer), _edges(moving, layer)
         base_edges.append(be)
         moving_edges.append(me)

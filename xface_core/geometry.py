@@ -140,9 +140,7 @@ class FaceDesign:
             raise XfaceValueError(f"|x0| = {abs(x0):g} exceeds the mated distance: no seat")
         return math.asin(ratio)
 
-    def moving_outline_world(
-        self, layer: int, x0: float, y_m: float, phi_m: float
-    ) -> FloatArray:
+    def moving_outline_world(self, layer: int, x0: float, y_m: float, phi_m: float) -> FloatArray:
         """The moving part's polygon of ``layer`` in the world (units of D)."""
         return _moving_to_world(self.moving_layers[layer], x0, y_m, phi_m)
 
@@ -221,8 +219,14 @@ def x_face(
     layer1 = [(-0.5, rp), (0.5, rp + h)]
     layer2 = [(-0.5, rp + h), (0.5, rp)]
     return _design(
-        "X", h, rp, w, [layer1, layer2], [layer1, layer2],
-        mirror_symmetric=True, body_depth=body_depth,
+        "X",
+        h,
+        rp,
+        w,
+        [layer1, layer2],
+        [layer1, layer2],
+        mirror_symmetric=True,
+        body_depth=body_depth,
     )
 
 
@@ -313,13 +317,11 @@ def custom_face(
     L = _check_ratio("mated_distance", mated_distance, allow_zero=False)
     w = _check_ratio("width", width, allow_zero=False)
     base = tuple(_validated_polygon(p, f"base layer {i}") for i, p in enumerate(base_layers))
-    moving = tuple(
-        _validated_polygon(p, f"moving layer {i}") for i, p in enumerate(moving_layers)
-    )
+    moving = tuple(_validated_polygon(p, f"moving layer {i}") for i, p in enumerate(moving_layers))
     for i, (b, m) in enumerate(zip(base, moving, strict=True)):
-        overlap = shapely.Polygon(b).intersection(
-            shapely.Polygon(_moving_to_world(m, 0.0, L, 0.0))
-        ).area
+        overlap = (
+            shapely.Polygon(b).intersection(shapely.Polygon(_moving_to_world(m, 0.0, L, 0.0))).area
+        )
         if overlap > 1e-9:
             raise GeometryError(f"layer {i}: the mated parts overlap (area {overlap:.3g} D^2)")
     return FaceDesign(

@@ -900,7 +900,13 @@ def simulate(
                     # through both pivots).  The seat itself is such a point.
                     if nact == 2:
                         fb, fm, fy, conv = _solve_fold(table, act, pb, pm, x0, ym)
-                        if conv and fy <= ym:
+                        # The jump to the fold skips contact detection: take it only when
+                        # the parts are still apart there.
+                        if (
+                            conv
+                            and fy <= ym
+                            and not overlapping(base_edges, moving_edges, fb, fm, x0, fy)
+                        ):
                             pb, pm, ym = fb, fm, fy
                     n = _record(path, path_pairs, n, ym, pb, pm, P_END, act, nact)
                     if _is_seated(pb, pm, x0, ym, L, seat_tol):
@@ -976,6 +982,9 @@ def simulate(
                     if hk < ev_h or ev_kind == E_NONE:
                         ev_kind, ev_idx, ev_h = E_OFF_EDGE, act[k], hk
             # inactive pairs: new contacts (the gap crosses its threshold inside the edge)
+            cache_h = -1.0
+            cache_b = pb
+            cache_m = pm
             cb1, sb1, cm1, sm1 = math.cos(nb), math.sin(nb), math.cos(nm), math.sin(nm)
             for i in range(npairs):
                 g1, u1, _, _, _, _, _, _, _ = eval_pair(table[i], cb1, sb1, cm1, sm1, x0, ym1)
@@ -990,6 +999,17 @@ def simulate(
                 u_est = u_prev[i] + (u1 - u_prev[i]) * (g_prev[i] - thr[i]) / (g_prev[i] - g1)
                 if u_est < -0.25 or u_est > 1.25:
                     continue
+                if ev_kind != E_NONE:
+                    # Not crossed yet at the earliest event found so far: it cannot come first.
+                    # (Several contacts close together at a seat; this spares their searches.)
+                    if cache_h != ev_h:
+                        cache_b, cache_m, _, _, _ = _rk_step(
+                            table, act, nact, pb, pm, x0, ym, ev_h, sqb, sqm, winv_b, winv_m
+                        )
+                        cache_h = ev_h
+                    gk, _, _, _, _, _, _, _, _ = _eval(table, i, cache_b, cache_m, x0, ym - ev_h)
+                    if gk > thr[i]:
+                        continue
                 _, hk = _locate(
                     table,
                     E_CONTACT,
@@ -1070,7 +1090,11 @@ def simulate(
                 ym = ym - ev_h
                 if nact == 2:
                     fb, fm, fy, conv = _solve_fold(table, act, pb, pm, x0, ym)
-                    if conv and abs(fy - ym) < 1e-6:
+                    if (
+                        conv
+                        and abs(fy - ym) < 1e-6
+                        and not overlapping(base_edges, moving_edges, fb, fm, x0, fy)
+                    ):
                         pb, pm, ym = fb, fm, fy
                 steps += 1
             elif ev_h > 0.0:
