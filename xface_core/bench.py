@@ -102,9 +102,11 @@ def _overlap_area(design: FaceDesign, x0: float, phi_b: float, phi_m: float, y_m
     import shapely
 
     return max(
-        shapely.Polygon(design.base_outline_world(k, phi_b))
-        .intersection(shapely.Polygon(design.moving_outline_world(k, x0, y_m, phi_m)))
-        .area
+        float(
+            shapely.Polygon(design.base_outline_world(k, phi_b))
+            .intersection(shapely.Polygon(design.moving_outline_world(k, x0, y_m, phi_m)))
+            .area
+        )
         for k in range(design.n_layers)
     )
 
