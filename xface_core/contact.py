@@ -98,7 +98,7 @@ def pair_table(design: FaceDesign) -> PairTable:
     return _pair_table_cached(design.cache_key, design)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def eval_pair(
     row: FloatArray, cb: float, sb: float, cm: float, sm: float, x0: float, y_m: float
 ) -> tuple[float, float, float, float, float, float, float, float, float]:

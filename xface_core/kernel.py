@@ -114,14 +114,14 @@ E1, E3, E4, E5, E6, E7 = (
 )
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _eval(
     table: FloatArray, i: int, pb: float, pm: float, x0: float, ym: float
 ) -> tuple[float, float, float, float, float, float, float, float, float]:
     return eval_pair(table[i], math.cos(pb), math.sin(pb), math.cos(pm), math.sin(pm), x0, ym)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _eval_all(
     table: FloatArray, pb: float, pm: float, x0: float, ym: float, out: FloatArray
 ) -> None:
@@ -135,7 +135,7 @@ def _eval_all(
         out[i, 4] = be
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _feasible(ev: FloatArray, cand: IntArray, nc: int, vb: float, vm: float, tol: float) -> bool:
     for k in range(nc):
         j = cand[k]
@@ -144,7 +144,7 @@ def _feasible(ev: FloatArray, cand: IntArray, nc: int, vb: float, vm: float, tol
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _solve_qp(
     ev: FloatArray, cand: IntArray, nc: int, sqb: float, sqm: float, tol: float, act: IntArray
 ) -> tuple[int, int, float, float]:
@@ -226,7 +226,7 @@ def _solve_qp(
     return 1, 0, 0.0, 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _velocity(
     table: FloatArray,
     act: IntArray,
@@ -264,7 +264,7 @@ def _velocity(
     return ub * sqb, um * sqm, l1, l2
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _project(
     table: FloatArray,
     act: IntArray,
@@ -306,7 +306,7 @@ def _project(
     return pb, pm
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _rk_step(
     table: FloatArray,
     act: IntArray,
@@ -386,7 +386,7 @@ def _rk_step(
     return nb, nm, eb, em, ok
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _event_value(
     table: FloatArray,
     kind: int,
@@ -420,7 +420,7 @@ def _event_value(
     return math.pi - max(abs(pb), abs(pm))
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _is_seated(pb: float, pm: float, x0: float, ym: float, L: float, tol: float) -> bool:
     phi = 0.5 * (pb + pm)
     return (
@@ -430,7 +430,7 @@ def _is_seated(pb: float, pm: float, x0: float, ym: float, L: float, tol: float)
     )
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _segments_cross(
     ax: float, ay: float, bx: float, by: float, cx: float, cy: float, dx: float, dy: float
 ) -> bool:
@@ -441,7 +441,7 @@ def _segments_cross(
     return d1 * d2 < 0.0 and d3 * d4 < 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _inside(px: float, py: float, edges: FloatArray, layer: float, rot: FloatArray) -> bool:
     """Even-odd point-in-polygon test against the world edges of one layer."""
     inside = False
@@ -456,7 +456,7 @@ def _inside(px: float, py: float, edges: FloatArray, layer: float, rot: FloatArr
     return inside
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _world_edges(
     edges: FloatArray, moving: bool, pb: float, pm: float, x0: float, ym: float
 ) -> FloatArray:
@@ -478,7 +478,7 @@ def _world_edges(
     return out
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def overlapping(
     base_edges: FloatArray,
     moving_edges: FloatArray,
@@ -507,7 +507,7 @@ def overlapping(
     return False
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _next_contact(ev: FloatArray, touch_tol: float) -> tuple[float, int]:
     """Exact descent to the next contact under pure translation; (inf, -1) when none.
 
@@ -532,7 +532,7 @@ def _next_contact(ev: FloatArray, touch_tol: float) -> tuple[float, int]:
     return best, best_i
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _fill_u_rate(table: FloatArray, pb: float, pm: float, ev: FloatArray) -> None:
     """Column 5 of ev: du/dd of each pair under pure descent (vertex moves -y relative to
     a base edge, +y relative to a moving edge)."""
@@ -550,7 +550,7 @@ def _fill_u_rate(table: FloatArray, pb: float, pm: float, ev: FloatArray) -> Non
         ev[i, 5] = sign * dy / (dx * dx + dy * dy)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _record(
     path: FloatArray,
     pairs: IntArray,
@@ -574,7 +574,7 @@ def _record(
     return n + 1
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _touching(
     ev: FloatArray, touch_tol: float, exclude: IntArray, n_ex: int, cand: IntArray
 ) -> int:
@@ -597,7 +597,7 @@ def _touching(
     return nc
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _corners_hold(
     table: FloatArray,
     corner: IntArray,
@@ -625,7 +625,7 @@ def _corners_hold(
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _choose_motion(
     table: FloatArray,
     ev: FloatArray,
@@ -707,7 +707,7 @@ def _choose_motion(
     return 0, best_n, best_vb, best_vm
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _fold_residual(
     table: FloatArray, act: IntArray, pb: float, pm: float, x0: float, ym: float
 ) -> tuple[float, float, float]:
@@ -716,7 +716,7 @@ def _fold_residual(
     return g1, g2, ab1 * am2 - am1 * ab2
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _solve_fold(
     table: FloatArray, act: IntArray, pb: float, pm: float, x0: float, ym: float
 ) -> tuple[float, float, float, bool]:
@@ -749,7 +749,7 @@ def _solve_fold(
     return x[0], x[1], x[2], ok
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def simulate(
     table: FloatArray,
     base_edges: FloatArray,
@@ -1135,7 +1135,7 @@ def simulate(
             break
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _locate(
     table: FloatArray,
     kind: int,
@@ -1198,7 +1198,7 @@ def _locate(
     return lo, hi
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def simulate_many(
     table: FloatArray,
     base_edges: FloatArray,
