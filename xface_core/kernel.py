@@ -708,6 +708,31 @@ def _choose_motion(
 
 
 @njit(cache=True, nogil=True)
+def _det3(m: FloatArray) -> float:
+    return float(
+        m[0, 0] * (m[1, 1] * m[2, 2] - m[1, 2] * m[2, 1])
+        - m[0, 1] * (m[1, 0] * m[2, 2] - m[1, 2] * m[2, 0])
+        + m[0, 2] * (m[1, 0] * m[2, 1] - m[1, 1] * m[2, 0])
+    )
+
+
+@njit(cache=True, nogil=True)
+def _solve3(m: FloatArray, b0: float, b1: float, b2: float) -> tuple[bool, float, float, float]:
+    """Cramer's rule for a 3 x 3 system (numba's np.linalg would need scipy's LAPACK)."""
+    det = _det3(m)
+    if not abs(det) > 1e-300:
+        return False, 0.0, 0.0, 0.0
+    out = np.empty(3)
+    for j in range(3):
+        c = m.copy()
+        c[0, j] = b0
+        c[1, j] = b1
+        c[2, j] = b2
+        out[j] = _det3(c) / det
+    return True, out[0], out[1], out[2]
+
+
+@njit(cache=True, nogil=True)
 def _fold_residual(
     table: FloatArray, act: IntArray, pb: float, pm: float, x0: float, ym: float
 ) -> tuple[float, float, float]:
@@ -738,10 +763,12 @@ def _solve_fold(
             xp[j] += step
             fp = np.array(_fold_residual(table, act, xp[0], xp[1], x0, xp[2]))
             jac[:, j] = (fp - f0) / step
-        if abs(np.linalg.det(jac)) < 1e-300:
+        ok, dx0, dx1, dx2 = _solve3(jac, -f0[0], -f0[1], -f0[2])
+        if not ok:
             break
-        dx = np.linalg.solve(jac, -f0)
-        x += dx
+        x[0] += dx0
+        x[1] += dx1
+        x[2] += dx2
         if not (np.all(np.isfinite(x)) and abs(x[0] - pb) < 0.1 and abs(x[1] - pm) < 0.1):
             break
     f0 = np.array(_fold_residual(table, act, x[0], x[1], x0, x[2]))
