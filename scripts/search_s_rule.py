@@ -4,7 +4,7 @@ Evidence for docs/bounds.md. Run from the repository root (about a minute on one
 
     .venv/bin/python scripts/search_s_rule.py            # everything
     .venv/bin/python scripts/search_s_rule.py --quick    # skips the calibration fits
-    .venv/bin/python scripts/search_s_rule.py --wide     # + the wide lever fit (~10 min)
+    .venv/bin/python scripts/search_s_rule.py --wide     # + the wide lever fit (~15 min)
 
 Table III (V-Face) is reproduced in all 121 cells by a "lever rule" (xface_core.bounds):
 angle cut |theta0| < pi/2 - atan(2h), tip band |x0 + l sin(theta0)| < 1/2 with lever
@@ -368,7 +368,7 @@ def part3_exact(wide: bool) -> tuple[float, float, float]:
     sets = cell_sets(T4)
     # The four cells the cut and reach decide alone (r_p = 0, H/D <= 0.32988) must match.
     structural = (0, 11, 22, 33)
-    if wide:  # the search that located the optimum (about 10 minutes on one core)
+    if wide:  # the search that located the optimum (about 15 minutes on one core)
         grid = (
             np.arange(0.45, 0.60, 0.0005),
             np.arange(0.3, 0.9, 0.001),
@@ -469,7 +469,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="skip the calibration fits")
     parser.add_argument(
-        "--wide", action="store_true", help="search the lever fit over a wide grid (~10 min)"
+        "--wide", action="store_true", help="search the lever fit over a wide grid (~15 min)"
     )
     args = parser.parse_args()
     t0 = time.perf_counter()
