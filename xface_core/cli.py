@@ -164,7 +164,11 @@ def _rect_json(amap: AcceptanceMap, rect: Any) -> dict[str, Any] | None:
 def _cmd_map(args: argparse.Namespace) -> int:
     design = make_face(args.face, args.h_over_d, args.rp, width=args.width)
     amap = acceptance_map(
-        design, grid=args.grid, theta_kind=args.theta_grid, damping_ratio=args.damping_ratio
+        design,
+        grid=args.grid,
+        theta_kind=args.theta_grid,
+        damping_ratio=args.damping_ratio,
+        coarse=args.coarse,
     )
     if args.png:
         from .mapimage import save_map_png
@@ -295,6 +299,12 @@ def build_parser() -> argparse.ArgumentParser:
     _design_args(p)
     p.add_argument("--grid", type=int, default=41, help="nodes per axis (odd)")
     p.add_argument("--theta-grid", choices=("symmetric", "paper"), default="symmetric")
+    p.add_argument(
+        "--coarse",
+        type=int,
+        default=None,
+        help="boundary-following refinement from this coarse grid (odd, divides the grid)",
+    )
     p.add_argument("--png", default=None, help="write a PNG picture of the map")
     p.add_argument("--rrd", default=None, help="write a rerun recording of the map")
     p.set_defaults(func=_cmd_map)

@@ -87,6 +87,7 @@ def acceptance_map(
     damping_ratio: float = 1.0,
     settings: SolverSettings = DEFAULT_SETTINGS,
     use_symmetry: bool = True,
+    coarse: int | None = None,
 ) -> AcceptanceMap:
     """Simulate every node of a ``grid x grid`` map (rows x0 from -D to D, columns theta0
     from -pi/2 to pi/2, built from integers so mirrored nodes are exact negatives).
@@ -94,6 +95,13 @@ def acceptance_map(
     With ``use_symmetry`` and a mirror-symmetric design on the symmetric grid, only half the
     nodes are simulated and the rest are mirrored: outcome(x0, theta0) = outcome(-x0, -theta0)
     holds exactly for such designs (the test suite checks it with ``use_symmetry=False``).
+
+    ``coarse`` (an odd node count with ``(grid - 1) % (coarse - 1) == 0``) turns on
+    boundary-following refinement for large grids: the coarse map is simulated first, every
+    coarse cell whose four corners agree is filled with their outcome, and only the fine
+    nodes of cells with differing corners are simulated. An island of another outcome that
+    fits inside one coarse cell without touching its corners is missed, so exact full grids
+    (the default) are used for the paper's tables; ``xface bench`` measures the trade.
 
     Examples
     --------
@@ -105,7 +113,11 @@ def acceptance_map(
     x_d = x0_grid(grid)
     th = theta_grid(grid, theta_kind)
     X, T = np.meshgrid(x_d, th, indexing="ij")
-    if use_symmetry and design.mirror_symmetric and theta_kind == "symmetric":
+    if coarse is not None:
+        outcomes = _refined_outcomes(
+            design, X, T, grid, coarse, theta_kind, damping_ratio, settings, use_symmetry
+        )
+    elif use_symmetry and design.mirror_symmetric and theta_kind == "symmetric":
         flat = X.size
         half = flat // 2 + 1  # cells k <= centre; cell flat-1-k is the mirror of cell k
         res = predict_batch(
@@ -132,6 +144,55 @@ def acceptance_map(
         guaranteed=largest_rectangle(seated),
         centred=largest_centred_rectangle(seated),
     )
+
+
+def _refined_outcomes(
+    design: FaceDesign,
+    X: npt.NDArray[np.float64],
+    T: npt.NDArray[np.float64],
+    grid: int,
+    coarse: int,
+    theta_kind: ThetaGridKind,
+    damping_ratio: float,
+    settings: SolverSettings,
+    use_symmetry: bool,
+) -> npt.NDArray[np.int8]:
+    if coarse < 3 or coarse % 2 == 0 or coarse >= grid or (grid - 1) % (coarse - 1):
+        raise XfaceValueError(
+            f"coarse must be odd, >= 3, < grid and divide the grid: grid={grid}, coarse={coarse}"
+        )
+    f = (grid - 1) // (coarse - 1)
+    coarse_map = acceptance_map(
+        design,
+        grid=coarse,
+        theta_kind=theta_kind,
+        damping_ratio=damping_ratio,
+        settings=settings,
+        use_symmetry=use_symmetry,
+    ).outcomes
+    out = np.full((grid, grid), -1, dtype=np.int8)
+    out[::f, ::f] = coarse_map
+    todo = np.zeros((grid, grid), dtype=bool)
+    for i in range(coarse - 1):
+        for j in range(coarse - 1):
+            corners = coarse_map[i : i + 2, j : j + 2]
+            block = (slice(i * f, (i + 1) * f + 1), slice(j * f, (j + 1) * f + 1))
+            if (corners == corners[0, 0]).all():
+                sub = out[block]
+                sub[sub < 0] = corners[0, 0]
+            else:
+                todo[block] = True
+    todo &= out < 0
+    if todo.any():
+        res = predict_batch(
+            design,
+            X[todo] * design.width,
+            T[todo],
+            damping_ratio=damping_ratio,
+            settings=settings,
+        )
+        out[todo] = res.outcome
+    return out
 
 
 @dataclass(frozen=True, eq=False)

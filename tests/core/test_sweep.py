@@ -96,3 +96,17 @@ def test_every_run_of_a_full_table_ends_in_a_decided_outcome(face: str) -> None:
         for rp in xf.PAPER_R_P:
             amap = xf.acceptance_map(xf.make_face(face, h, rp))
             assert set(np.unique(amap.outcomes).tolist()) <= decided, (face, h, rp)
+
+
+def test_refined_map_fills_agreeing_cells_and_keeps_coarse_nodes() -> None:
+    design = xf.x_face(0.25, 2.0)
+    full = xf.acceptance_map(design, grid=81)
+    refined = xf.acceptance_map(design, grid=81, coarse=21)
+    assert np.array_equal(refined.outcomes[::4, ::4], xf.acceptance_map(design, grid=21).outcomes)
+    assert np.array_equal(full.outcomes, refined.outcomes)
+
+
+@pytest.mark.parametrize("coarse", [2, 4, 41, 13])
+def test_refinement_needs_a_dividing_odd_coarse_grid(coarse: int) -> None:
+    with pytest.raises(xf.XfaceValueError, match="coarse"):
+        xf.acceptance_map(xf.x_face(0.25, 2.0), grid=41, coarse=coarse)
