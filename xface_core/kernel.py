@@ -44,7 +44,8 @@ S_WINV_B = 8
 S_WINV_M = 9
 S_JAM_SPEED = 10
 S_FIRST_STEP = 11
-N_SETTINGS = 12
+S_FRICTION = 12
+N_SETTINGS = 13
 
 # ---- outcome codes (values of outcome.Outcome) ------------------------------------------
 O_INVALID = 0
@@ -68,6 +69,7 @@ R_EVENT_LIMIT = 8
 R_OVERLAP = 9
 R_OUT_OF_REACH = 10
 R_NONFINITE = 11
+R_FRICTION_LOCK = 12
 
 # ---- phases (values of result.Phase) ----------------------------------------------------
 P_APPROACH = 0
@@ -83,8 +85,11 @@ E_OFF_EDGE = 3
 E_BELOW_SEAT = 4
 E_SPUN = 5
 E_TURN = 6
+E_SLIP = 7
 
 TINY = 1e-300
+# Friction state of an active contact (fric[1 + k]): sliding with the slip rate's sign, or stuck.
+STICK = 2.0
 ALIGN_TOL = 1e-9
 U_TOL = 1e-9
 U_CORNER = 1e-6  # edge-parameter slack within which a vertex meets an edge's end corner
@@ -227,6 +232,26 @@ def _solve_qp(
 
 
 @njit(cache=True, nogil=True)
+def _tangent(
+    table: FloatArray, i: int, pb: float, pm: float, x0: float, ym: float
+) -> tuple[float, float, float]:
+    """Slip of pair i: the vertex's rate along the edge's unit tangent t, relative to the edge,
+    is ``c . dq/ds + gamma``.  Returns ``(c_b, c_m, gamma)``; ``c`` is also the generalised
+    force of a unit force along t at the contact (on the vertex body; minus it on the other)."""
+    row = table[i]
+    _, _, _, _, _, px, py, nx, ny = _eval(table, i, pb, pm, x0, ym)
+    # The outward normal is the tangent turned clockwise: t = (-n_y, n_x).
+    tx, ty = -ny, nx
+    if row[0] == 0.0:
+        c_b = -(px * ty - py * tx)
+        c_m = (px - x0) * ty - (py - ym) * tx
+        return c_b, c_m, -ty
+    c_b = px * ty - py * tx
+    c_m = -((px - x0) * ty - (py - ym) * tx)
+    return c_b, c_m, ty
+
+
+@njit(cache=True, nogil=True)
 def _velocity(
     table: FloatArray,
     act: IntArray,
@@ -237,15 +262,43 @@ def _velocity(
     ym: float,
     sqb: float,
     sqm: float,
+    fric: FloatArray,
 ) -> tuple[float, float, float, float]:
-    """Rate dq/ds with the active set held fixed; returns (v_b, v_m, lambda_0, lambda_1).
+    """Rate dq/ds with the active set held fixed; returns (v_b, v_m, lambda_0, x) where x is
+    lambda_1 for two contacts and, for one stuck contact, its tangential force tau.
 
-    Non-finite rates signal a singular configuration (a contact normal through both pivots).
+    Frictionless, the rate is the least-dissipation one.  With Coulomb friction mu =
+    fric[0], a sliding contact pushes along ``a - mu s c`` (s: the slip's sign, fric[1 + k]),
+    a stuck one (fric[1] = STICK) adds the slip constraint ``c . v = -gamma``.  Non-finite
+    rates signal a singular configuration (a contact normal through both pivots) or a
+    friction lock.
     """
+    mu = fric[0]
     _, _, ab1, am1, b1, _, _, _, _ = _eval(table, act[0], pb, pm, x0, ym)
     ab1 *= sqb
     am1 *= sqm
     if nact == 1:
+        if mu > 0.0 and fric[1] != 0.0:
+            cb, cm, gam = _tangent(table, act[0], pb, pm, x0, ym)
+            cb *= sqb
+            cm *= sqm
+            if fric[1] == STICK:
+                a11 = ab1 * ab1 + am1 * am1
+                a12 = ab1 * cb + am1 * cm
+                a22 = cb * cb + cm * cm
+                det = a11 * a22 - a12 * a12
+                if det <= 1e-24 * max(a11 * a22, TINY):
+                    return math.nan, math.nan, math.nan, math.nan
+                lam = (b1 * a22 + a12 * gam) / det
+                tau = (-a11 * gam - a12 * b1) / det
+                return (lam * ab1 + tau * cb) * sqb, (lam * am1 + tau * cm) * sqm, lam, tau
+            db = ab1 - mu * fric[1] * cb
+            dm = am1 - mu * fric[1] * cm
+            den = ab1 * db + am1 * dm
+            if den <= 1e-24:
+                return math.nan, math.nan, math.nan, 0.0
+            lam = b1 / den
+            return lam * db * sqb, lam * dm * sqm, lam, 0.0
         nn = ab1 * ab1 + am1 * am1
         if nn <= 1e-24:
             return math.nan, math.nan, math.nan, 0.0
@@ -257,11 +310,46 @@ def _velocity(
     det = ab1 * am2 - am1 * ab2
     if det == 0.0:
         return math.nan, math.nan, math.nan, math.nan
+    # Two contacts fix the rate; friction only changes how the load is shared.
     ub = (b1 * am2 - am1 * b2) / det
     um = (ab1 * b2 - b1 * ab2) / det
-    l1 = (ub * am2 - ab2 * um) / det
-    l2 = (ab1 * um - am1 * ub) / det
+    d1b, d1m, d2b, d2m = ab1, am1, ab2, am2
+    if mu > 0.0:
+        c1b, c1m, _ = _tangent(table, act[0], pb, pm, x0, ym)
+        c2b, c2m, _ = _tangent(table, act[1], pb, pm, x0, ym)
+        d1b -= mu * fric[1] * c1b * sqb
+        d1m -= mu * fric[1] * c1m * sqm
+        d2b -= mu * fric[2] * c2b * sqb
+        d2m -= mu * fric[2] * c2m * sqm
+    det2 = d1b * d2m - d1m * d2b
+    if det2 == 0.0:
+        return math.nan, math.nan, math.nan, math.nan
+    l1 = (ub * d2m - d2b * um) / det2
+    l2 = (d1b * um - d1m * ub) / det2
     return ub * sqb, um * sqm, l1, l2
+
+
+@njit(cache=True, nogil=True)
+def _slip_margin(
+    table: FloatArray,
+    act: IntArray,
+    nact: int,
+    k: int,
+    pb: float,
+    pm: float,
+    x0: float,
+    ym: float,
+    sqb: float,
+    sqm: float,
+    fric: FloatArray,
+) -> float:
+    """Positive while contact k keeps its friction state: a sliding contact keeps its slip
+    direction, a stuck one keeps its tangential force inside the cone |tau| <= mu lambda."""
+    vb, vm, lam, x = _velocity(table, act, nact, pb, pm, x0, ym, sqb, sqm, fric)
+    if fric[1 + k] == STICK:
+        return float(fric[0] * lam - abs(x))
+    cb, cm, gam = _tangent(table, act[k], pb, pm, x0, ym)
+    return float(fric[1 + k] * (cb * vb + cm * vm + gam))
 
 
 @njit(cache=True, nogil=True)
@@ -320,11 +408,12 @@ def _rk_step(
     sqm: float,
     winv_b: float,
     winv_m: float,
+    fric: FloatArray,
 ) -> tuple[float, float, float, float, bool]:
     """One Dormand-Prince step of length h in descent; returns (pb, pm, err_b, err_m, ok)."""
-    k1b, k1m, _, _ = _velocity(table, act, nact, pb, pm, x0, ym, sqb, sqm)
+    k1b, k1m, _, _ = _velocity(table, act, nact, pb, pm, x0, ym, sqb, sqm, fric)
     k2b, k2m, _, _ = _velocity(
-        table, act, nact, pb + h * A21 * k1b, pm + h * A21 * k1m, x0, ym - h / 5.0, sqb, sqm
+        table, act, nact, pb + h * A21 * k1b, pm + h * A21 * k1m, x0, ym - h / 5.0, sqb, sqm, fric
     )
     k3b, k3m, _, _ = _velocity(
         table,
@@ -336,6 +425,7 @@ def _rk_step(
         ym - h * 0.3,
         sqb,
         sqm,
+        fric,
     )
     k4b, k4m, _, _ = _velocity(
         table,
@@ -347,6 +437,7 @@ def _rk_step(
         ym - h * 0.8,
         sqb,
         sqm,
+        fric,
     )
     k5b, k5m, _, _ = _velocity(
         table,
@@ -358,6 +449,7 @@ def _rk_step(
         ym - h * (8.0 / 9.0),
         sqb,
         sqm,
+        fric,
     )
     k6b, k6m, _, _ = _velocity(
         table,
@@ -369,10 +461,11 @@ def _rk_step(
         ym - h,
         sqb,
         sqm,
+        fric,
     )
     nb = pb + h * (B1 * k1b + B3 * k3b + B4 * k4b + B5 * k5b + B6 * k6b)
     nm = pm + h * (B1 * k1m + B3 * k3m + B4 * k4m + B5 * k5m + B6 * k6m)
-    k7b, k7m, _, _ = _velocity(table, act, nact, nb, nm, x0, ym - h, sqb, sqm)
+    k7b, k7m, _, _ = _velocity(table, act, nact, nb, nm, x0, ym - h, sqb, sqm, fric)
     eb = h * (E1 * k1b + E3 * k3b + E4 * k4b + E5 * k5b + E6 * k6b + E7 * k7b)
     em = h * (E1 * k1m + E3 * k3m + E4 * k4m + E5 * k5m + E6 * k6m + E7 * k7m)
     ok = math.isfinite(eb) and math.isfinite(em) and math.isfinite(nb) and math.isfinite(nm)
@@ -402,13 +495,14 @@ def _event_value(
     sqb: float,
     sqm: float,
     y_floor: float,
+    fric: FloatArray,
 ) -> float:
     """Signed event function: positive before the event, <= 0 once it has happened."""
     if kind == E_CONTACT:
         g, _, _, _, _, _, _, _, _ = _eval(table, idx, pb, pm, x0, ym)
         return g - thr
     if kind == E_RELEASE:
-        _, _, l1, l2 = _velocity(table, act, nact, pb, pm, x0, ym, sqb, sqm)
+        _, _, l1, l2 = _velocity(table, act, nact, pb, pm, x0, ym, sqb, sqm, fric)
         return l1 if slot == 0 else l2
     if kind == E_OFF_EDGE:
         _, u, _, _, _, _, _, _, _ = _eval(table, idx, pb, pm, x0, ym)
@@ -416,6 +510,8 @@ def _event_value(
         return min(u + U_TOL, 1.0 + U_TOL - u)
     if kind == E_BELOW_SEAT:
         return ym - y_floor
+    if kind == E_SLIP:
+        return _slip_margin(table, act, nact, slot, pb, pm, x0, ym, sqb, sqm, fric)
     # E_SPUN
     return math.pi - max(abs(pb), abs(pm))
 
@@ -777,6 +873,64 @@ def _solve_fold(
 
 
 @njit(cache=True, nogil=True)
+def _friction_modes(
+    table: FloatArray,
+    act: IntArray,
+    nact: int,
+    pb: float,
+    pm: float,
+    x0: float,
+    ym: float,
+    sqb: float,
+    sqm: float,
+    fric: FloatArray,
+    v0b: float,
+    v0m: float,
+) -> bool:
+    """Choose each active contact's friction state (fric[1 + k]); False for a friction lock.
+
+    The active set is the frictionless one (least dissipation); friction then sets the motion
+    within it. One contact: slide in the direction the frictionless motion slips, else the
+    other way, else stick; each must be consistent (lambda >= 0, the slip keeps its sign, a
+    stuck contact's force inside the cone). Quasi-static Coulomb problems can admit several
+    consistent states; this order picks one deterministically. Two contacts fix the rate, so
+    each slips the way that rate makes it slip.
+    """
+    fric[1] = 0.0
+    fric[2] = 0.0
+    if nact == 2:
+        for k in range(2):
+            cb, cm, gam = _tangent(table, act[k], pb, pm, x0, ym)
+            slip = cb * v0b + cm * v0m + gam
+            fric[1 + k] = 0.0 if abs(slip) < 1e-12 else math.copysign(1.0, slip)
+        return True
+    cb, cm, gam = _tangent(table, act[0], pb, pm, x0, ym)
+    slip0 = cb * v0b + cm * v0m + gam
+    first = 1.0 if slip0 >= 0.0 else -1.0
+    dd = 1e-7
+    for mode in (first, -first, STICK):
+        fric[1] = mode
+        vb, vm, lam, _ = _velocity(table, act, nact, pb, pm, x0, ym, sqb, sqm, fric)
+        if not (math.isfinite(vb) and math.isfinite(vm) and lam >= 0.0):
+            continue
+        # Judge the state a short move ahead: at a stick-slip transition the state at the
+        # point itself is marginal, and the wrong choice would fire its event at once.
+        qb, qm, yy = pb + dd * vb, pm + dd * vm, ym - dd
+        wb, wm, lam2, x2 = _velocity(table, act, nact, qb, qm, x0, yy, sqb, sqm, fric)
+        if not (math.isfinite(wb) and math.isfinite(wm) and lam2 >= 0.0):
+            continue
+        if mode == STICK:
+            if abs(x2) <= fric[0] * lam2:
+                return True
+        else:
+            tb, tm, tg = _tangent(table, act[0], qb, qm, x0, yy)
+            if mode * (tb * wb + tm * wm + tg) >= 0.0:
+                return True
+    fric[1] = 0.0
+    return False
+
+
+@njit(cache=True, nogil=True)
 def simulate(
     table: FloatArray,
     base_edges: FloatArray,
@@ -809,6 +963,9 @@ def simulate(
     jam_speed = settings[S_JAM_SPEED]
     sqb = math.sqrt(winv_b)
     sqm = math.sqrt(winv_m)
+    # fric[0]: Coulomb coefficient; fric[1 + k]: friction state of active contact k.
+    fric = np.zeros(3)
+    fric[0] = settings[S_FRICTION]
 
     pb = 0.0
     pm = theta0
@@ -858,7 +1015,16 @@ def simulate(
         # ---- start of an interval: which contacts act, and how do the parts move? ----------
         _eval_all(table, pb, pm, x0, ym, ev)
         nc = _touching(ev, touch_tol, exclude, n_ex, cand)
-        status, new_nact, _, _ = _choose_motion(table, ev, cand, nc, pb, pm, x0, ym, sqb, sqm, act)
+        status, new_nact, v0b, v0m = _choose_motion(
+            table, ev, cand, nc, pb, pm, x0, ym, sqb, sqm, act
+        )
+        if status == 0 and new_nact > 0 and fric[0] > 0.0:
+            if not _friction_modes(table, act, new_nact, pb, pm, x0, ym, sqb, sqm, fric, v0b, v0m):
+                # Friction locks the contact: no admissible slip state lets the parts descend.
+                n = _record(path, path_pairs, n, ym, pb, pm, P_END, act, 0)
+                if _is_seated(pb, pm, x0, ym, L, seat_tol):
+                    return O_SEATED, R_SEATED, pb, pm, ym, steps, events, changes, rejected, n
+                return O_BAD_MATE, R_FRICTION_LOCK, pb, pm, ym, steps, events, changes, rejected, n
         if status == 1:
             # Blocked: no descent is possible any more.
             n = _record(path, path_pairs, n, ym, pb, pm, P_END, act, 0)
@@ -906,7 +1072,7 @@ def simulate(
                 return O_UNRESOLVED, R_STEP_LIMIT, pb, pm, ym, steps, events, changes, rejected, n
             h = min(h, max_step)
             nb, nm, eb, em, ok = _rk_step(
-                table, act, nact, pb, pm, x0, ym, h, sqb, sqm, winv_b, winv_m
+                table, act, nact, pb, pm, x0, ym, h, sqb, sqm, winv_b, winv_m, fric
             )
             if ok:
                 sc_b = atol + rtol * max(abs(pb), abs(nb))
@@ -947,7 +1113,7 @@ def simulate(
             ev_h = h
             ym1 = ym - h
             # active contacts: release (lambda < 0) and leaving the edge
-            _, _, l1, l2 = _velocity(table, act, nact, nb, nm, x0, ym1, sqb, sqm)
+            _, _, l1, l2 = _velocity(table, act, nact, nb, nm, x0, ym1, sqb, sqm, fric)
             for k in range(nact):
                 lam = l1 if k == 0 else l2
                 if lam < 0.0:
@@ -970,13 +1136,16 @@ def simulate(
                         winv_m,
                         y_floor,
                         event_tol,
+                        fric,
                     )
                     kind = E_RELEASE
                     pbk, pmk, _, _, _ = _rk_step(
-                        table, act, nact, pb, pm, x0, ym, lo, sqb, sqm, winv_b, winv_m
+                        table, act, nact, pb, pm, x0, ym, lo, sqb, sqm, winv_b, winv_m, fric
                     )
-                    _, _, m1, m2 = _velocity(table, act, nact, pbk, pmk, x0, ym - lo, sqb, sqm)
-                    _, _, s1, s2 = _velocity(table, act, nact, pb, pm, x0, ym, sqb, sqm)
+                    _, _, m1, m2 = _velocity(
+                        table, act, nact, pbk, pmk, x0, ym - lo, sqb, sqm, fric
+                    )
+                    _, _, s1, s2 = _velocity(table, act, nact, pb, pm, x0, ym, sqb, sqm, fric)
                     if abs(m1 if k == 0 else m2) > 1e-6 * max(1.0, abs(s1 if k == 0 else s2)):
                         # lambda changed sign through a pole, not through zero: the contact
                         # path turns back here and cannot descend further.
@@ -1005,9 +1174,39 @@ def simulate(
                         winv_m,
                         y_floor,
                         event_tol,
+                        fric,
                     )
                     if hk < ev_h or ev_kind == E_NONE:
                         ev_kind, ev_idx, ev_h = E_OFF_EDGE, act[k], hk
+            # friction: a sliding contact stops or reverses, a stuck one starts to slide
+            if fric[0] > 0.0:
+                for k in range(nact):
+                    if fric[1 + k] == 0.0:
+                        continue
+                    if _slip_margin(table, act, nact, k, nb, nm, x0, ym1, sqb, sqm, fric) < 0.0:
+                        _, hk = _locate(
+                            table,
+                            E_SLIP,
+                            act[k],
+                            k,
+                            0.0,
+                            act,
+                            nact,
+                            pb,
+                            pm,
+                            x0,
+                            ym,
+                            h,
+                            sqb,
+                            sqm,
+                            winv_b,
+                            winv_m,
+                            y_floor,
+                            event_tol,
+                            fric,
+                        )
+                        if hk < ev_h or ev_kind == E_NONE:
+                            ev_kind, ev_idx, ev_h = E_SLIP, act[k], hk
             # inactive pairs: new contacts (the gap crosses its threshold inside the edge)
             cache_h = -1.0
             cache_b = pb
@@ -1031,7 +1230,7 @@ def simulate(
                     # (Several contacts close together at a seat; this spares their searches.)
                     if cache_h != ev_h:
                         cache_b, cache_m, _, _, _ = _rk_step(
-                            table, act, nact, pb, pm, x0, ym, ev_h, sqb, sqm, winv_b, winv_m
+                            table, act, nact, pb, pm, x0, ym, ev_h, sqb, sqm, winv_b, winv_m, fric
                         )
                         cache_h = ev_h
                     gk, _, _, _, _, _, _, _, _ = _eval(table, i, cache_b, cache_m, x0, ym - ev_h)
@@ -1056,11 +1255,12 @@ def simulate(
                     winv_m,
                     y_floor,
                     event_tol,
+                    fric,
                 )
                 if ev_kind != E_NONE and hk >= ev_h:
                     continue
                 pbk, pmk, _, _, _ = _rk_step(
-                    table, act, nact, pb, pm, x0, ym, hk, sqb, sqm, winv_b, winv_m
+                    table, act, nact, pb, pm, x0, ym, hk, sqb, sqm, winv_b, winv_m, fric
                 )
                 _, uk, _, _, _, _, _, _, _ = _eval(table, i, pbk, pmk, x0, ym - hk)
                 # A vertex crossing a line just beyond the edge's end is meeting the corner
@@ -1092,6 +1292,7 @@ def simulate(
                     winv_m,
                     y_floor,
                     event_tol,
+                    fric,
                 )
                 if hk < ev_h or ev_kind == E_NONE:
                     ev_kind, ev_idx, ev_h = E_SPUN, -1, hk
@@ -1126,7 +1327,7 @@ def simulate(
                 steps += 1
             elif ev_h > 0.0:
                 pb, pm, _, _, _ = _rk_step(
-                    table, act, nact, pb, pm, x0, ym, ev_h, sqb, sqm, winv_b, winv_m
+                    table, act, nact, pb, pm, x0, ym, ev_h, sqb, sqm, winv_b, winv_m, fric
                 )
                 ym = ym - ev_h
                 steps += 1
@@ -1182,6 +1383,7 @@ def _locate(
     winv_m: float,
     y_floor: float,
     event_tol: float,
+    fric: FloatArray,
 ) -> tuple[float, float]:
     """Step lengths bracketing the zero of an event function (Illinois method).
 
@@ -1190,11 +1392,13 @@ def _locate(
     returned pair ``(lo, hi)`` brackets the event to ``event_tol``: before it and just after.
     """
     lo = 0.0
-    f_lo = _event_value(table, kind, idx, slot, thr, act, nact, pb, pm, x0, ym, sqb, sqm, y_floor)
+    f_lo = _event_value(
+        table, kind, idx, slot, thr, act, nact, pb, pm, x0, ym, sqb, sqm, y_floor, fric
+    )
     hi = h
-    nb, nm, _, _, _ = _rk_step(table, act, nact, pb, pm, x0, ym, hi, sqb, sqm, winv_b, winv_m)
+    nb, nm, _, _, _ = _rk_step(table, act, nact, pb, pm, x0, ym, hi, sqb, sqm, winv_b, winv_m, fric)
     f_hi = _event_value(
-        table, kind, idx, slot, thr, act, nact, nb, nm, x0, ym - hi, sqb, sqm, y_floor
+        table, kind, idx, slot, thr, act, nact, nb, nm, x0, ym - hi, sqb, sqm, y_floor, fric
     )
     if not f_lo > 0.0:
         return 0.0, 0.0
@@ -1208,9 +1412,11 @@ def _locate(
                 mid = 0.5 * (lo + hi)
         else:
             mid = 0.5 * (lo + hi)
-        nb, nm, _, _, _ = _rk_step(table, act, nact, pb, pm, x0, ym, mid, sqb, sqm, winv_b, winv_m)
+        nb, nm, _, _, _ = _rk_step(
+            table, act, nact, pb, pm, x0, ym, mid, sqb, sqm, winv_b, winv_m, fric
+        )
         f_mid = _event_value(
-            table, kind, idx, slot, thr, act, nact, nb, nm, x0, ym - mid, sqb, sqm, y_floor
+            table, kind, idx, slot, thr, act, nact, nb, nm, x0, ym - mid, sqb, sqm, y_floor, fric
         )
         if math.isfinite(f_mid) and f_mid > 0.0:
             lo, f_lo = mid, f_mid

@@ -33,6 +33,7 @@ def _flip_distance(
     step: float,
     resolution: float,
     damping_ratio: float,
+    friction: float,
     settings: SolverSettings,
 ) -> float:
     """Distance along one axis (0: x0 in D, 1: theta0) to the first node whose outcome
@@ -41,7 +42,9 @@ def _flip_distance(
     xs = np.full(offsets.shape, x0)
     ts = np.full(offsets.shape, theta0)
     (xs if axis == 0 else ts)[:] += direction * offsets * (design.width if axis == 0 else 1.0)
-    codes = predict_batch(design, xs, ts, damping_ratio=damping_ratio, settings=settings).outcome
+    codes = predict_batch(
+        design, xs, ts, damping_ratio=damping_ratio, friction=friction, settings=settings
+    ).outcome
     flips = np.flatnonzero(codes != outcome)
     if flips.size == 0:
         return math.inf
@@ -58,7 +61,7 @@ def _flip_distance(
             )
         )
         code = predict_batch(
-            design, [x], [t], damping_ratio=damping_ratio, settings=settings
+            design, [x], [t], damping_ratio=damping_ratio, friction=friction, settings=settings
         ).outcome[0]
         if code == outcome:
             lo = mid
@@ -74,6 +77,7 @@ def outcome_margins(
     outcome: Outcome,
     *,
     damping_ratio: float = 1.0,
+    friction: float = 0.0,
     settings: SolverSettings = DEFAULT_SETTINGS,
 ) -> Margins:
     """Distances from (x0, theta0) to the nearest outcome flip, along x0 and along theta0.
@@ -91,7 +95,7 @@ def outcome_margins(
     >>> 0.0 < m.lateral < 2 * d.mated_distance and 0.0 < m.angle < math.pi
     True
     """
-    common = {"damping_ratio": damping_ratio, "settings": settings}
+    common = {"damping_ratio": damping_ratio, "friction": friction, "settings": settings}
     lateral_limit = 2.0 * design.mated_distance
     lat = [
         _flip_distance(

@@ -23,6 +23,9 @@ __all__ = ["REASONS", "BatchResult", "SolverSettings", "predict", "predict_batch
 
 FloatArray = npt.NDArray[np.float64]
 
+#: Largest accepted Coulomb friction coefficient (steel on steel is about 0.6).
+MAX_FRICTION = 10.0
+
 #: Path samples allocated up front; longer paths trigger one re-run with an exact buffer.
 PATH_BUFFER = 256
 
@@ -43,6 +46,7 @@ REASONS: dict[int, str] = {
     K.R_OVERLAP: "the start pose interpenetrates the parts",
     K.R_OUT_OF_REACH: "|x0| exceeds the mated pivot distance L: no seated pose exists",
     K.R_NONFINITE: "non-finite input",
+    K.R_FRICTION_LOCK: "jammed by friction: no slip state lets the parts descend",
 }
 
 
@@ -77,8 +81,9 @@ class SolverSettings:
     jam_speed: float = 1e6
     """Rotation rate (rad per D of descent) treated as a jam (normal through both pivots)."""
 
-    def vector(self, damping_ratio: float) -> FloatArray:
-        """The kernel's settings vector for a damping ratio c_B / c_M."""
+    def vector(self, damping_ratio: float, friction: float = 0.0) -> FloatArray:
+        """The kernel's settings vector for a damping ratio c_B / c_M and a Coulomb
+        friction coefficient."""
         v = np.zeros(K.N_SETTINGS)
         v[K.S_RTOL] = self.rtol
         v[K.S_ATOL] = self.atol
@@ -92,6 +97,7 @@ class SolverSettings:
         v[K.S_WINV_B] = 0.0 if math.isinf(damping_ratio) else 1.0 / damping_ratio
         v[K.S_WINV_M] = 1.0
         v[K.S_JAM_SPEED] = self.jam_speed
+        v[K.S_FRICTION] = friction
         return v
 
     def tightened(self, factor: float) -> SolverSettings:
@@ -112,12 +118,8 @@ def _check_physics(damping_ratio: float, friction: float) -> None:
         raise XfaceValueError(
             f"damping_ratio must be > 0 (inf locks the base), got {damping_ratio}"
         )
-    if friction != 0.0:
-        if not (math.isfinite(friction) and friction > 0.0):
-            raise XfaceValueError(f"friction must be a finite value >= 0, got {friction}")
-        raise XfaceValueError(
-            "Coulomb friction (friction > 0) is not simulated yet; only friction = 0 is supported"
-        )
+    if not (0.0 <= friction <= MAX_FRICTION):  # also rejects NaN
+        raise XfaceValueError(f"friction must be in [0, {MAX_FRICTION:g}], got {friction}")
 
 
 def start_height(design: FaceDesign, theta0: float) -> float:
@@ -160,7 +162,8 @@ def predict(
         Rotational damping of the base over that of the moving part, c_B / c_M; ``inf``
         holds the base fixed.
     friction : float
-        Coulomb friction coefficient; only 0 (the paper's assumption) is simulated.
+        Coulomb friction coefficient at every contact (0, the paper's assumption, by
+        default; the paper names friction as future work).
     path : bool
         Keep the alignment path (costs memory, not much time).
     margins : bool
@@ -191,7 +194,7 @@ def predict(
     x0_d = x0 / w
     y0_d = start_height(design, theta0) if y_start is None else y_start / w
     table = pair_table(design)
-    vector = settings.vector(damping_ratio)
+    vector = settings.vector(damping_ratio, friction)
     n_buf = PATH_BUFFER if path else 1
     while True:
         buf = np.empty((n_buf, 4))
@@ -254,6 +257,7 @@ def predict(
                 theta0,
                 prediction.outcome,
                 damping_ratio=damping_ratio,
+                friction=friction,
                 settings=settings,
             ),
         )
@@ -301,7 +305,13 @@ def predict_batch(
     ts = tb.ravel()
     table = pair_table(design)
     code, pb, pm, steps, events = _run_flat(
-        table.data, table.base_edges, table.moving_edges, design, xs, ts, settings, damping_ratio
+        table.data,
+        table.base_edges,
+        table.moving_edges,
+        design,
+        xs,
+        ts,
+        settings.vector(damping_ratio, friction),
     )
     shape = xb.shape
     return BatchResult(
@@ -320,8 +330,7 @@ def _run_flat(
     design: FaceDesign,
     xs: FloatArray,
     ts: FloatArray,
-    settings: SolverSettings,
-    damping_ratio: float,
+    vector: FloatArray,
 ) -> tuple[
     npt.NDArray[np.int8], FloatArray, FloatArray, npt.NDArray[np.int64], npt.NDArray[np.int64]
 ]:
@@ -339,5 +348,5 @@ def _run_flat(
         ts,
         ys,
         valid,
-        settings.vector(damping_ratio),
+        vector,
     )

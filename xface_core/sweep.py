@@ -85,6 +85,7 @@ def acceptance_map(
     grid: int = PAPER_GRID_SIZE,
     theta_kind: ThetaGridKind = "symmetric",
     damping_ratio: float = 1.0,
+    friction: float = 0.0,
     settings: SolverSettings = DEFAULT_SETTINGS,
     use_symmetry: bool = True,
     coarse: int | None = None,
@@ -115,7 +116,7 @@ def acceptance_map(
     X, T = np.meshgrid(x_d, th, indexing="ij")
     if coarse is not None:
         outcomes = _refined_outcomes(
-            design, X, T, grid, coarse, theta_kind, damping_ratio, settings, use_symmetry
+            design, X, T, grid, coarse, theta_kind, damping_ratio, friction, settings, use_symmetry
         )
     elif use_symmetry and design.mirror_symmetric and theta_kind == "symmetric":
         flat = X.size
@@ -125,6 +126,7 @@ def acceptance_map(
             X.ravel()[:half] * design.width,
             T.ravel()[:half],
             damping_ratio=damping_ratio,
+            friction=friction,
             settings=settings,
         )
         out = np.empty(flat, dtype=np.int8)
@@ -133,7 +135,12 @@ def acceptance_map(
         outcomes = out.reshape(X.shape)
     else:
         outcomes = predict_batch(
-            design, X * design.width, T, damping_ratio=damping_ratio, settings=settings
+            design,
+            X * design.width,
+            T,
+            damping_ratio=damping_ratio,
+            friction=friction,
+            settings=settings,
         ).outcome
     seated = outcomes == Outcome.SEATED
     return AcceptanceMap(
@@ -154,6 +161,7 @@ def _refined_outcomes(
     coarse: int,
     theta_kind: ThetaGridKind,
     damping_ratio: float,
+    friction: float,
     settings: SolverSettings,
     use_symmetry: bool,
 ) -> npt.NDArray[np.int8]:
@@ -167,6 +175,7 @@ def _refined_outcomes(
         grid=coarse,
         theta_kind=theta_kind,
         damping_ratio=damping_ratio,
+        friction=friction,
         settings=settings,
         use_symmetry=use_symmetry,
     ).outcomes
@@ -189,6 +198,7 @@ def _refined_outcomes(
             X[todo] * design.width,
             T[todo],
             damping_ratio=damping_ratio,
+            friction=friction,
             settings=settings,
         )
         out[todo] = res.outcome
@@ -207,13 +217,16 @@ class MTable:
     theta_kind: ThetaGridKind
 
 
-def _map_m(args: tuple[str, float, float, int, ThetaGridKind, float, SolverSettings]) -> int:
-    face, h, rp, grid, theta_kind, damping_ratio, settings = args
+def _map_m(
+    args: tuple[str, float, float, int, ThetaGridKind, float, float, SolverSettings],
+) -> int:
+    face, h, rp, grid, theta_kind, damping_ratio, friction, settings = args
     return acceptance_map(
         make_face(face, h, rp),
         grid=grid,
         theta_kind=theta_kind,
         damping_ratio=damping_ratio,
+        friction=friction,
         settings=settings,
     ).M
 
@@ -227,6 +240,7 @@ def m_table(
     r_p: Sequence[float] = PAPER_R_P,
     grid: int = PAPER_GRID_SIZE,
     damping_ratio: float = 1.0,
+    friction: float = 0.0,
     settings: SolverSettings = DEFAULT_SETTINGS,
     workers: int | None = None,
 ) -> MTable:
@@ -248,7 +262,7 @@ def m_table(
         m = bound_table(face, theta_grid=theta_kind, h_over_d=h_over_d, r_p=r_p, n=grid)  # type: ignore[arg-type]
     elif method == "sim":
         jobs = [
-            (face, float(h), float(rp), grid, theta_kind, damping_ratio, settings)
+            (face, float(h), float(rp), grid, theta_kind, damping_ratio, friction, settings)
             for h in h_over_d
             for rp in r_p
         ]

@@ -93,10 +93,9 @@ SPECS: tuple[ParamSpec, ...] = (
     ParamSpec(
         "friction",
         0.0,
-        "Coulomb friction coefficient between the faces (the core simulates 0 only, "
-        "other values are refused).",
+        "Coulomb friction coefficient at every contact between the faces (0 is the "
+        "paper's frictionless model).",
         float_range=(0.0, 2.0),
-        constraints="must be a value the simulator supports (currently 0)",
     ),
     ParamSpec(
         "base_frame",

@@ -62,3 +62,26 @@ def test_seat_angle_matches_the_distance_condition() -> None:
         p = xf.predict(design, x0, 0.0)
         assert p.outcome is xf.Outcome.SEATED
         assert math.sin(p.phi_m) == pytest.approx(-x0 / design.mated_distance, abs=1e-9)
+
+
+@pytest.mark.parametrize("h", [0.25, 0.5, 1.0, 2.0])
+@pytest.mark.parametrize("x0", [0.2, -0.6])
+def test_aligned_slide_seats_below_the_incline_slope_and_jams_above(h: float, x0: float) -> None:
+    # Sliding along an incline of slope H/D needs mu < tan(alpha) = H/D (the wedge condition).
+    design = xf.x_face(h, 1.0)
+    assert xf.predict(design, x0, 0.0, friction=0.8 * h).outcome is xf.Outcome.SEATED
+    jammed = xf.predict(design, x0, 0.0, friction=1.25 * h)
+    assert jammed.outcome is xf.Outcome.BAD_MATE
+
+
+def test_zero_friction_is_the_frictionless_model() -> None:
+    design = xf.s_face(0.5, 1.0)
+    a = xf.predict(design, 0.3, 0.2)
+    b = xf.predict(design, 0.3, 0.2, friction=0.0)
+    assert (a.phi_b, a.phi_m, a.pivot_m) == (b.phi_b, b.phi_m, b.pivot_m)
+
+
+def test_friction_never_enlarges_the_flat_x_face_map() -> None:
+    design = xf.x_face(0.5, 1.0)
+    m = [xf.acceptance_map(design, friction=mu, grid=21).M for mu in (0.0, 0.2, 0.4)]
+    assert m[0] >= m[1] >= m[2]

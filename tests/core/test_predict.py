@@ -81,9 +81,10 @@ def test_bad_damping_ratio_raises(ratio: float) -> None:
         xf.predict(xf.x_face(0.25, 1.0), 0.0, 0.0, damping_ratio=ratio)
 
 
-def test_friction_is_refused_until_simulated() -> None:
+@pytest.mark.parametrize("mu", [-0.1, math.nan, math.inf, 11.0])
+def test_bad_friction_raises(mu: float) -> None:
     with pytest.raises(xf.XfaceValueError, match="friction"):
-        xf.predict(xf.x_face(0.25, 1.0), 0.0, 0.0, friction=0.3)
+        xf.predict(xf.x_face(0.25, 1.0), 0.0, 0.0, friction=mu)
 
 
 def test_batch_equals_scalar_bitwise() -> None:

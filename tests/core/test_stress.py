@@ -217,3 +217,11 @@ def test_property_mirror_symmetry(
     a = xf.predict(design, x0, theta0, path=False)
     b = xf.predict(design, -x0, -theta0, path=False)
     assert a.outcome is b.outcome
+
+
+@settings(max_examples=30)
+@given(designs, poses, st.floats(0.0, 1.5))
+def test_property_with_friction_terminates_decided_without_penetration(
+    design: xf.FaceDesign, pose: tuple[float, float], mu: float
+) -> None:
+    check_run(xf.predict(design, *pose, friction=mu))

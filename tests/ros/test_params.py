@@ -95,9 +95,13 @@ def test_invalid_values_are_refused_with_the_parameter_named(
         config_from_values({**defaults(), name: value})
 
 
-def test_friction_the_core_does_not_simulate_is_refused_with_the_cores_reason() -> None:
+def test_negative_friction_is_refused_with_the_cores_reason() -> None:
     with pytest.raises(ConfigError, match="friction"):
-        config_from_values({**defaults(), "friction": 0.3})
+        config_from_values({**defaults(), "friction": -0.3})
+
+
+def test_friction_is_passed_to_the_simulator() -> None:
+    assert config_from_values({**defaults(), "friction": 0.3}).friction == 0.3
 
 
 def test_face_letter_is_case_insensitive() -> None:
