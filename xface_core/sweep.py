@@ -89,6 +89,7 @@ def acceptance_map(
     settings: SolverSettings = DEFAULT_SETTINGS,
     use_symmetry: bool = True,
     coarse: int | None = None,
+    threads: int | None = None,
 ) -> AcceptanceMap:
     """Simulate every node of a ``grid x grid`` map (rows x0 from -D to D, columns theta0
     from -pi/2 to pi/2, built from integers so mirrored nodes are exact negatives).
@@ -116,7 +117,17 @@ def acceptance_map(
     X, T = np.meshgrid(x_d, th, indexing="ij")
     if coarse is not None:
         outcomes = _refined_outcomes(
-            design, X, T, grid, coarse, theta_kind, damping_ratio, friction, settings, use_symmetry
+            design,
+            X,
+            T,
+            grid,
+            coarse,
+            theta_kind,
+            damping_ratio,
+            friction,
+            settings,
+            use_symmetry,
+            threads,
         )
     elif use_symmetry and design.mirror_symmetric and theta_kind == "symmetric":
         flat = X.size
@@ -128,6 +139,7 @@ def acceptance_map(
             damping_ratio=damping_ratio,
             friction=friction,
             settings=settings,
+            threads=threads,
         )
         out = np.empty(flat, dtype=np.int8)
         out[:half] = res.outcome
@@ -141,6 +153,7 @@ def acceptance_map(
             damping_ratio=damping_ratio,
             friction=friction,
             settings=settings,
+            threads=threads,
         ).outcome
     seated = outcomes == Outcome.SEATED
     return AcceptanceMap(
@@ -164,6 +177,7 @@ def _refined_outcomes(
     friction: float,
     settings: SolverSettings,
     use_symmetry: bool,
+    threads: int | None,
 ) -> npt.NDArray[np.int8]:
     if coarse < 3 or coarse % 2 == 0 or coarse >= grid or (grid - 1) % (coarse - 1):
         raise XfaceValueError(
@@ -178,6 +192,7 @@ def _refined_outcomes(
         friction=friction,
         settings=settings,
         use_symmetry=use_symmetry,
+        threads=threads,
     ).outcomes
     out = np.full((grid, grid), -1, dtype=np.int8)
     out[::f, ::f] = coarse_map
@@ -200,6 +215,7 @@ def _refined_outcomes(
             damping_ratio=damping_ratio,
             friction=friction,
             settings=settings,
+            threads=threads,
         )
         out[todo] = res.outcome
     return out
@@ -218,9 +234,9 @@ class MTable:
 
 
 def _map_m(
-    args: tuple[str, float, float, int, ThetaGridKind, float, float, SolverSettings],
+    args: tuple[str, float, float, int, ThetaGridKind, float, float, SolverSettings, int],
 ) -> int:
-    face, h, rp, grid, theta_kind, damping_ratio, friction, settings = args
+    face, h, rp, grid, theta_kind, damping_ratio, friction, settings, threads = args
     return acceptance_map(
         make_face(face, h, rp),
         grid=grid,
@@ -228,6 +244,7 @@ def _map_m(
         damping_ratio=damping_ratio,
         friction=friction,
         settings=settings,
+        threads=threads,
     ).M
 
 
@@ -261,12 +278,13 @@ def m_table(
             raise XfaceValueError("the closed-form bound exists for the V and S faces only")
         m = bound_table(face, theta_grid=theta_kind, h_over_d=h_over_d, r_p=r_p, n=grid)  # type: ignore[arg-type]
     elif method == "sim":
+        n_workers = (os.cpu_count() or 1) if workers is None else workers
+        # One thread per process: the processes already use every core.
         jobs = [
-            (face, float(h), float(rp), grid, theta_kind, damping_ratio, friction, settings)
+            (face, float(h), float(rp), grid, theta_kind, damping_ratio, friction, settings, 1)
             for h in h_over_d
             for rp in r_p
         ]
-        n_workers = os.cpu_count() or 1 if workers is None else workers
         if n_workers <= 1:
             values = [_map_m(j) for j in jobs]
         else:
