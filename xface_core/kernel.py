@@ -1013,6 +1013,11 @@ def simulate(
             n = _record(path, path_pairs, n, ym, pb, pm, P_END, act, nact)
             return O_UNRESOLVED, R_EVENT_LIMIT, pb, pm, ym, steps, events, changes, rejected, n
         # ---- start of an interval: which contacts act, and how do the parts move? ----------
+        if had_contact and _is_seated(pb, pm, x0, ym, L, seat_tol):
+            # At the mated pose (to the seat tolerance) nothing is left to decide; going on
+            # would only follow round-off around the seat's corners.
+            n = _record(path, path_pairs, n, ym, pb, pm, P_END, act, 0)
+            return O_SEATED, R_SEATED, pb, pm, ym, steps, events, changes, rejected, n
         _eval_all(table, pb, pm, x0, ym, ev)
         nc = _touching(ev, touch_tol, exclude, n_ex, cand)
         status, new_nact, v0b, v0m = _choose_motion(
@@ -1057,7 +1062,9 @@ def simulate(
         # ---- integrate with the active set fixed until the next event ----------------------
         # Start exactly on the active constraints (events leave gaps of up to the touching
         # tolerance); the step error then measures only the step's own drift.
-        pb, pm = _project(table, act, nact, pb, pm, x0, ym, winv_b, winv_m)
+        qb, qm = _project(table, act, nact, pb, pm, x0, ym, winv_b, winv_m)
+        if max(abs(qb - pb), abs(qm - pm)) < 1e-6:
+            pb, pm = qb, qm
         _eval_all(table, pb, pm, x0, ym, ev)
         for i in range(npairs):
             g = ev[i, 0]
