@@ -16,6 +16,8 @@ __all__ = ["outcome_margins"]
 #: Coarse scan steps before bisection: D/40 laterally, pi/160 in angle.
 LATERAL_STEP = 1.0 / 40.0
 ANGLE_STEP = math.pi / 160.0
+#: Scan nodes simulated per batch (most flips are within the first batch).
+SCAN_BATCH = 16
 #: Bisection resolution: 1e-4 D laterally, 1e-5 rad in angle.
 LATERAL_RESOLUTION = 1e-4
 ANGLE_RESOLUTION = 1e-5
@@ -37,17 +39,26 @@ def _flip_distance(
     settings: SolverSettings,
 ) -> float:
     """Distance along one axis (0: x0 in D, 1: theta0) to the first node whose outcome
-    differs from ``outcome``, scanned coarsely (one batch) then bisected; inf if none."""
+    differs from ``outcome``, scanned coarsely (in batches, nearest first, stopping at the
+    first batch with a flip) then bisected; inf if none."""
     offsets = np.arange(1, math.ceil(limit / step) + 1) * step
-    xs = np.full(offsets.shape, x0)
-    ts = np.full(offsets.shape, theta0)
-    (xs if axis == 0 else ts)[:] += direction * offsets * (design.width if axis == 0 else 1.0)
-    codes = predict_batch(
-        design, xs, ts, damping_ratio=damping_ratio, friction=friction, settings=settings
-    ).outcome
-    flips = np.flatnonzero(codes != outcome)
-    if flips.size == 0:
+    scale = design.width if axis == 0 else 1.0
+    flip = -1
+    for start in range(0, offsets.size, SCAN_BATCH):
+        chunk = offsets[start : start + SCAN_BATCH]
+        xs = np.full(chunk.shape, x0)
+        ts = np.full(chunk.shape, theta0)
+        (xs if axis == 0 else ts)[:] += direction * chunk * scale
+        codes = predict_batch(
+            design, xs, ts, damping_ratio=damping_ratio, friction=friction, settings=settings
+        ).outcome
+        found = np.flatnonzero(codes != outcome)
+        if found.size:
+            flip = start + int(found[0])
+            break
+    if flip < 0:
         return math.inf
+    flips = [flip]
     hi = float(offsets[flips[0]])
     lo = hi - step
     while hi - lo > resolution:
