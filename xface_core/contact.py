@@ -53,6 +53,10 @@ class PairTable:
     """Largest distance of a base vertex from the base pivot (D)."""
     moving_radius: float
     """Largest distance of a moving vertex from the moving pivot (D)."""
+    moving_vertices: FloatArray
+    """(n, 2) all vertices of the moving part, every layer (body frame, D)."""
+    base_top: float
+    """Highest point of the base part in its body frame (D)."""
 
 
 def _edges(poly: FloatArray, layer: int) -> FloatArray:
@@ -90,6 +94,8 @@ def _pair_table_cached(key: tuple[object, ...], design: FaceDesign) -> PairTable
         moving_edges=np.ascontiguousarray(np.vstack(moving_edges)),
         base_radius=max(float(np.hypot(*p.T).max()) for p in design.base_layers),
         moving_radius=max(float(np.hypot(*p.T).max()) for p in design.moving_layers),
+        moving_vertices=np.ascontiguousarray(np.vstack(design.moving_layers)),
+        base_top=max(float(p[:, 1].max()) for p in design.base_layers),
     )
 
 

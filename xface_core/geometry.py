@@ -20,6 +20,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Literal
 
 import numpy as np
@@ -105,9 +106,9 @@ class FaceDesign:
         """Number of layers (2 for the X-Face, 1 for V and S)."""
         return len(self.base_layers)
 
-    @property
+    @cached_property
     def cache_key(self) -> tuple[object, ...]:
-        """A hashable key that identifies the geometry (not the width)."""
+        """A hashable key that identifies the geometry (not the width); computed once."""
         return (
             self.kind,
             self.mated_distance,

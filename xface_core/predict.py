@@ -127,14 +127,23 @@ def _check_physics(damping_ratio: float, friction: float) -> None:
         raise XfaceValueError(f"friction must be in [0, {MAX_FRICTION:g}], got {friction}")
 
 
-def start_height(design: FaceDesign, theta0: float) -> float:
-    """Lowest moving-pivot height (units of D) at which the parts are clear of each other
-    for any x0, plus a small clearance: the default start of the approach."""
-    c, s = math.cos(theta0), math.sin(theta0)
-    top_base = max(float(p[:, 1].max()) for p in design.base_layers)
+def start_heights(design: FaceDesign, theta0: npt.ArrayLike) -> FloatArray:
+    """Lowest moving-pivot heights (units of D) at which the parts are clear of each other
+    for any x0, plus a small clearance: the default start of the approach, per angle
+    (vectorised; non-finite angles give NaN)."""
+    th = np.asarray(theta0, dtype=np.float64)
+    finite = np.isfinite(th)
+    th = np.where(finite, th, 0.0)
+    table = pair_table(design)
+    v = table.moving_vertices
     # A moving body point v sits at y_M - (sin th v_x + cos th v_y).
-    reach = max(float((s * p[:, 0] + c * p[:, 1]).max()) for p in design.moving_layers)
-    return top_base + reach + 0.01
+    reach = (np.sin(th)[..., None] * v[:, 0] + np.cos(th)[..., None] * v[:, 1]).max(axis=-1)
+    return np.asarray(np.where(finite, table.base_top + reach + 0.01, np.nan), dtype=np.float64)
+
+
+def start_height(design: FaceDesign, theta0: float) -> float:
+    """:func:`start_heights` for one angle."""
+    return float(start_heights(design, theta0))
 
 
 def predict(
@@ -347,7 +356,7 @@ def _run_flat(
     npt.NDArray[np.int8], FloatArray, FloatArray, npt.NDArray[np.int64], npt.NDArray[np.int64]
 ]:
     """Run the kernel over flat arrays of x0 (units of D) and theta0."""
-    ys = np.array([start_height(design, t) if math.isfinite(t) else 0.0 for t in ts])
+    ys = np.nan_to_num(start_heights(design, ts))
     valid = (
         np.isfinite(xs) & np.isfinite(ts) & (np.abs(xs) <= MAX_OFFSET) & (np.abs(ts) <= 2 * np.pi)
     )
