@@ -1335,11 +1335,25 @@ def simulate(
                         pb, pm, ym = fb, fm, fy
                 steps += 1
             elif ev_h > 0.0:
-                pb, pm, _, _, _ = _rk_step(
+                eb, em, _, _, e_ok = _rk_step(
                     table, act, nact, pb, pm, x0, ym, ev_h, sqb, sqm, winv_b, winv_m, fric
                 )
-                ym = ym - ev_h
-                steps += 1
+                if e_ok and max(abs(eb - pb), abs(em - pm)) <= MAX_TURN:
+                    pb, pm = eb, em
+                    ym = ym - ev_h
+                    steps += 1
+                else:
+                    # The step to the event crosses a fold of the path (the rate blows up
+                    # on the way): stop at the last good state as at a turning point.
+                    ev_kind = E_TURN
+                    if nact == 2:
+                        fb, fm, fy, conv = _solve_fold(table, act, pb, pm, x0, ym)
+                        if (
+                            conv
+                            and abs(fy - ym) < 1e-6
+                            and not overlapping(base_edges, moving_edges, fb, fm, x0, fy)
+                        ):
+                            pb, pm, ym = fb, fm, fy
             events += 1
             phase = P_SLIDE if abs(pb - pm) <= ALIGN_TOL else P_ALIGN
             n = _record(path, path_pairs, n, ym, pb, pm, phase, act, nact)
