@@ -968,6 +968,8 @@ def simulate(
     # fric[0]: Coulomb coefficient; fric[1 + k]: friction state of active contact k.
     fric = np.zeros(3)
     fric[0] = settings[S_FRICTION]
+    # The trial step's start and the solver constants, for event searches.
+    step = np.zeros(11)
 
     pb = 0.0
     pm = theta0
@@ -1006,6 +1008,13 @@ def simulate(
     exclude = np.full(8, -1, dtype=np.int64)
     n_ex = 0
     y_floor = math.sqrt(L * L - x0 * x0) - seat_tol * max(1.0, L)
+    step[2] = x0
+    step[5] = sqb
+    step[6] = sqm
+    step[7] = winv_b
+    step[8] = winv_m
+    step[9] = y_floor
+    step[10] = event_tol
     had_contact = False
     n = _record(path, path_pairs, n, ym, pb, pm, P_APPROACH, act, 0)
     h = settings[S_FIRST_STEP]
@@ -1121,31 +1130,17 @@ def simulate(
             ev_idx = -1
             ev_h = h
             ym1 = ym - h
+            step[0] = pb
+            step[1] = pm
+            step[3] = ym
+            step[4] = h
             # active contacts: release (lambda < 0) and leaving the edge
             _, _, l1, l2 = _velocity(table, act, nact, nb, nm, x0, ym1, sqb, sqm, fric)
             for k in range(nact):
                 lam = l1 if k == 0 else l2
                 if lam < 0.0:
-                    lo, hk = _locate(
-                        table,
-                        E_RELEASE,
-                        act[k],
-                        k,
-                        0.0,
-                        act,
-                        nact,
-                        pb,
-                        pm,
-                        x0,
-                        ym,
-                        h,
-                        sqb,
-                        sqm,
-                        winv_b,
-                        winv_m,
-                        y_floor,
-                        event_tol,
-                        fric,
+                    lo, hk = _locate_in_step(
+                        table, E_RELEASE, act[k], k, 0.0, act, nact, step, fric
                     )
                     kind = E_RELEASE
                     pbk, pmk, _, _, _ = _rk_step(
@@ -1164,26 +1159,8 @@ def simulate(
                         ev_kind, ev_idx, ev_h = kind, act[k], hk
                 _, u, _, _, _, _, _, _, _ = _eval(table, act[k], nb, nm, x0, ym1)
                 if u < -U_TOL or u > 1.0 + U_TOL:
-                    _, hk = _locate(
-                        table,
-                        E_OFF_EDGE,
-                        act[k],
-                        k,
-                        0.0,
-                        act,
-                        nact,
-                        pb,
-                        pm,
-                        x0,
-                        ym,
-                        h,
-                        sqb,
-                        sqm,
-                        winv_b,
-                        winv_m,
-                        y_floor,
-                        event_tol,
-                        fric,
+                    _, hk = _locate_in_step(
+                        table, E_OFF_EDGE, act[k], k, 0.0, act, nact, step, fric
                     )
                     if hk < ev_h or ev_kind == E_NONE:
                         ev_kind, ev_idx, ev_h = E_OFF_EDGE, act[k], hk
@@ -1193,26 +1170,8 @@ def simulate(
                     if fric[1 + k] == 0.0:
                         continue
                     if _slip_margin(table, act, nact, k, nb, nm, x0, ym1, sqb, sqm, fric) < 0.0:
-                        _, hk = _locate(
-                            table,
-                            E_SLIP,
-                            act[k],
-                            k,
-                            0.0,
-                            act,
-                            nact,
-                            pb,
-                            pm,
-                            x0,
-                            ym,
-                            h,
-                            sqb,
-                            sqm,
-                            winv_b,
-                            winv_m,
-                            y_floor,
-                            event_tol,
-                            fric,
+                        _, hk = _locate_in_step(
+                            table, E_SLIP, act[k], k, 0.0, act, nact, step, fric
                         )
                         if hk < ev_h or ev_kind == E_NONE:
                             ev_kind, ev_idx, ev_h = E_SLIP, act[k], hk
@@ -1245,27 +1204,7 @@ def simulate(
                     gk, _, _, _, _, _, _, _, _ = _eval(table, i, cache_b, cache_m, x0, ym - ev_h)
                     if gk > thr[i]:
                         continue
-                _, hk = _locate(
-                    table,
-                    E_CONTACT,
-                    i,
-                    0,
-                    thr[i],
-                    act,
-                    nact,
-                    pb,
-                    pm,
-                    x0,
-                    ym,
-                    h,
-                    sqb,
-                    sqm,
-                    winv_b,
-                    winv_m,
-                    y_floor,
-                    event_tol,
-                    fric,
-                )
+                _, hk = _locate_in_step(table, E_CONTACT, i, 0, thr[i], act, nact, step, fric)
                 if ev_kind != E_NONE and hk >= ev_h:
                     continue
                 pbk, pmk, _, _, _ = _rk_step(
@@ -1282,27 +1221,7 @@ def simulate(
                 if hk < ev_h or ev_kind == E_NONE:
                     ev_kind, ev_idx, ev_h = E_BELOW_SEAT, -1, hk
             if max(abs(nb), abs(nm)) > math.pi:
-                _, hk = _locate(
-                    table,
-                    E_SPUN,
-                    -1,
-                    0,
-                    0.0,
-                    act,
-                    nact,
-                    pb,
-                    pm,
-                    x0,
-                    ym,
-                    h,
-                    sqb,
-                    sqm,
-                    winv_b,
-                    winv_m,
-                    y_floor,
-                    event_tol,
-                    fric,
-                )
+                _, hk = _locate_in_step(table, E_SPUN, -1, 0, 0.0, act, nact, step, fric)
                 if hk < ev_h or ev_kind == E_NONE:
                     ev_kind, ev_idx, ev_h = E_SPUN, -1, hk
             if ev_kind == E_NONE:
@@ -1545,6 +1464,44 @@ def _locate(
                 f_lo *= 0.5
             side = -1
     return lo, hi
+
+
+@njit(cache=True, nogil=True)
+def _locate_in_step(
+    table: FloatArray,
+    kind: int,
+    idx: int,
+    slot: int,
+    thr: float,
+    act: IntArray,
+    nact: int,
+    step: FloatArray,
+    fric: FloatArray,
+) -> tuple[float, float]:
+    """:func:`_locate` for the current trial step, whose start state and solver constants
+    are packed in ``step``: (pb, pm, x0, ym, h, sqb, sqm, winv_b, winv_m, y_floor,
+    event_tol)."""
+    return _locate(
+        table,
+        kind,
+        idx,
+        slot,
+        thr,
+        act,
+        nact,
+        step[0],
+        step[1],
+        step[2],
+        step[3],
+        step[4],
+        step[5],
+        step[6],
+        step[7],
+        step[8],
+        step[9],
+        step[10],
+        fric,
+    )
 
 
 @njit(cache=True, nogil=True)
