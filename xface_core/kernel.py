@@ -1179,6 +1179,9 @@ def simulate(
             cache_h = -1.0
             cache_b = pb
             cache_m = pm
+            early_h = -1.0
+            early_b = pb
+            early_m = pm
             cb1, sb1, cm1, sm1 = math.cos(nb), math.sin(nb), math.cos(nm), math.sin(nm)
             for i in range(npairs):
                 g1, u1, _, _, _, _, _, _, _ = eval_pair(table[i], cb1, sb1, cm1, sm1, x0, ym1)
@@ -1203,6 +1206,31 @@ def simulate(
                         cache_h = ev_h
                     gk, _, _, _, _, _, _, _, _ = _eval(table, i, cache_b, cache_m, x0, ym - ev_h)
                     if gk > thr[i]:
+                        continue
+                    # Crossed within two event widths before it: the same moment (contacts
+                    # closing together, as at a seat); the next interval's touching scan picks
+                    # it up without a search of its own.
+                    if early_h != ev_h:
+                        early_b, early_m, _, _, _ = _rk_step(
+                            table,
+                            act,
+                            nact,
+                            pb,
+                            pm,
+                            x0,
+                            ym,
+                            max(ev_h - 2.0 * event_tol, 0.0),
+                            sqb,
+                            sqm,
+                            winv_b,
+                            winv_m,
+                            fric,
+                        )
+                        early_h = ev_h
+                    ge, _, _, _, _, _, _, _, _ = _eval(
+                        table, i, early_b, early_m, x0, ym - max(ev_h - 2.0 * event_tol, 0.0)
+                    )
+                    if ge > thr[i]:
                         continue
                 _, hk = _locate_in_step(table, E_CONTACT, i, 0, thr[i], act, nact, step, fric)
                 if ev_kind != E_NONE and hk >= ev_h:
