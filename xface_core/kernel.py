@@ -1533,6 +1533,17 @@ def _locate_in_step(
 
 
 @njit(cache=True, nogil=True)
+def lowest_reach(vertices: FloatArray, theta: float) -> float:
+    """max over body points v of (sin theta v_x + cos theta v_y): how far the moving part,
+    turned by theta, reaches below its pivot (D)."""
+    s, c = math.sin(theta), math.cos(theta)
+    best = -math.inf
+    for k in range(vertices.shape[0]):
+        best = max(best, s * vertices[k, 0] + c * vertices[k, 1])
+    return best
+
+
+@njit(cache=True, nogil=True)
 def simulate_many(
     table: FloatArray,
     base_edges: FloatArray,
