@@ -93,6 +93,7 @@ STICK = 2.0
 ALIGN_TOL = 1e-9
 U_TOL = 1e-9
 U_CORNER = 1e-6  # edge-parameter slack within which a vertex meets an edge's end corner
+CUT_DEPTH = 1e-7  # D: deeper than this, a jump to a fold cut into a contact
 MAX_TURN = 0.02  # rad per accepted step
 MAX_CAND = 16
 
@@ -933,6 +934,30 @@ def _friction_modes(
 
 
 @njit(cache=True, nogil=True)
+def _cuts_in(
+    table: FloatArray,
+    g_start: FloatArray,
+    thr: FloatArray,
+    pb: float,
+    pm: float,
+    x0: float,
+    ym: float,
+) -> bool:
+    """True when, at (pb, pm, ym), some pair that was clear at the step start lies behind its
+    edge's line (deeper than CUT_DEPTH) within the edge's span: a jump there (to a fold)
+    skipped a contact.  Contacts closing exactly at a seat fold stay far shallower.  Unlike
+    :func:`overlapping` this does not fire on corners that merely touch."""
+    cb, sb, cm, sm = math.cos(pb), math.sin(pb), math.cos(pm), math.sin(pm)
+    for i in range(table.shape[0]):
+        if g_start[i] <= thr[i]:
+            continue
+        g, u, _, _, _, _, _, _, _ = eval_pair(table[i], cb, sb, cm, sm, x0, ym)
+        if g < thr[i] - CUT_DEPTH and -U_CORNER <= u <= 1.0 + U_CORNER:
+            return True
+    return False
+
+
+@njit(cache=True, nogil=True)
 def simulate(
     table: FloatArray,
     base_edges: FloatArray,
@@ -1034,6 +1059,24 @@ def simulate(
         status, new_nact, v0b, v0m = _choose_motion(
             table, ev, cand, nc, pb, pm, x0, ym, sqb, sqm, act
         )
+        if status == 0 and new_nact == 1 and fric[0] > 0.0:
+            # Friction turns the rate away from the frictionless one: a touching contact that
+            # the frictionless rate cleared may now be cut into.  Hold it as well.
+            if _friction_modes(table, act, 1, pb, pm, x0, ym, sqb, sqm, fric, v0b, v0m):
+                fb, fm, _, _ = _velocity(table, act, 1, pb, pm, x0, ym, sqb, sqm, fric)
+                worst = 0.0
+                for k in range(nc):
+                    j = cand[k]
+                    if j == act[0]:
+                        continue
+                    short = ev[j, 4] - (ev[j, 2] * fb + ev[j, 3] * fm)
+                    if short > 1e-9 * (1.0 + abs(ev[j, 4])) and short > worst:
+                        worst = short
+                        act[1] = j
+                if worst > 0.0:
+                    new_nact = 2
+                    # Two contacts fix the rate; the frictionless one is the same rate.
+                    v0b, v0m, _, _ = _velocity(table, act, 2, pb, pm, x0, ym, sqb, sqm, fric)
         if status == 0 and new_nact > 0 and fric[0] > 0.0:
             if not _friction_modes(table, act, new_nact, pb, pm, x0, ym, sqb, sqm, fric, v0b, v0m):
                 # Friction locks the contact: no admissible slip state lets the parts descend.
@@ -1113,11 +1156,7 @@ def simulate(
                         fb, fm, fy, conv = _solve_fold(table, act, pb, pm, x0, ym)
                         # The jump to the fold skips contact detection: take it only when
                         # the parts are still apart there.
-                        if (
-                            conv
-                            and fy <= ym
-                            and not overlapping(base_edges, moving_edges, fb, fm, x0, fy)
-                        ):
+                        if conv and fy <= ym and not _cuts_in(table, g_prev, thr, fb, fm, x0, fy):
                             pb, pm, ym = fb, fm, fy
                     n = _record(path, path_pairs, n, ym, pb, pm, P_END, act, nact)
                     if _is_seated(pb, pm, x0, ym, L, seat_tol):
@@ -1269,15 +1308,18 @@ def simulate(
                 # The rate diverges at a fold of the contact path: integrating up to it is
                 # ill-conditioned, so solve the active constraints there directly (Newton from
                 # the last good state); the state is then exact to about sqrt(event_tol).
+                tb, tm = pb, pm
                 for _ in range(20):
-                    pb, pm = _project(table, act, nact, pb, pm, x0, ym - ev_h, winv_b, winv_m)
-                ym = ym - ev_h
+                    tb, tm = _project(table, act, nact, tb, tm, x0, ym - ev_h, winv_b, winv_m)
+                if not _cuts_in(table, g_prev, thr, tb, tm, x0, ym - ev_h):
+                    pb, pm = tb, tm
+                    ym = ym - ev_h
                 if nact == 2:
                     fb, fm, fy, conv = _solve_fold(table, act, pb, pm, x0, ym)
                     if (
                         conv
                         and abs(fy - ym) < 1e-6
-                        and not overlapping(base_edges, moving_edges, fb, fm, x0, fy)
+                        and not _cuts_in(table, g_prev, thr, fb, fm, x0, fy)
                     ):
                         pb, pm, ym = fb, fm, fy
                 steps += 1
@@ -1298,7 +1340,7 @@ def simulate(
                         if (
                             conv
                             and abs(fy - ym) < 1e-6
-                            and not overlapping(base_edges, moving_edges, fb, fm, x0, fy)
+                            and not _cuts_in(table, g_prev, thr, fb, fm, x0, fy)
                         ):
                             pb, pm, ym = fb, fm, fy
             events += 1

