@@ -230,3 +230,13 @@ def test_property_with_friction_terminates_decided_without_penetration(
     design: xf.FaceDesign, pose: tuple[float, float], mu: float
 ) -> None:
     check_run(xf.predict(design, *pose, friction=mu))
+
+
+def test_thread_count_does_not_change_results() -> None:
+    design = xf.s_face(1.0, 2.0)
+    rng = np.random.default_rng(5)
+    x0, th = rng.uniform(-1, 1, 400), rng.uniform(-1.5, 1.5, 400)
+    one = xf.predict_batch(design, x0, th, threads=1)
+    two = xf.predict_batch(design, x0, th, threads=2)
+    assert np.array_equal(one.outcome, two.outcome)
+    assert np.array_equal(one.phi_m, two.phi_m, equal_nan=True)
