@@ -1376,6 +1376,34 @@ def simulate(
 
 
 @njit(cache=True, nogil=True)
+def _event_after(
+    table: FloatArray,
+    kind: int,
+    idx: int,
+    slot: int,
+    thr: float,
+    act: IntArray,
+    nact: int,
+    pb: float,
+    pm: float,
+    x0: float,
+    ym: float,
+    t: float,
+    sqb: float,
+    sqm: float,
+    winv_b: float,
+    winv_m: float,
+    y_floor: float,
+    fric: FloatArray,
+) -> float:
+    """The event function on the state one integration step of length ``t`` from the start."""
+    nb, nm, _, _, _ = _rk_step(table, act, nact, pb, pm, x0, ym, t, sqb, sqm, winv_b, winv_m, fric)
+    return _event_value(
+        table, kind, idx, slot, thr, act, nact, nb, nm, x0, ym - t, sqb, sqm, y_floor, fric
+    )
+
+
+@njit(cache=True, nogil=True)
 def _locate(
     table: FloatArray,
     kind: int,
@@ -1465,10 +1493,7 @@ def _locate(
             delta = max(2e-5 * hi, 4.0 * event_tol)
             t_lo, t_hi = guess - delta, guess + delta
             if t_lo > 0.0 and t_hi < hi:
-                bb, bm, _, _, _ = _rk_step(
-                    table, act, nact, pb, pm, x0, ym, t_lo, sqb, sqm, winv_b, winv_m, fric
-                )
-                g_lo = _event_value(
+                g_lo = _event_after(
                     table,
                     kind,
                     idx,
@@ -1476,19 +1501,19 @@ def _locate(
                     thr,
                     act,
                     nact,
-                    bb,
-                    bm,
+                    pb,
+                    pm,
                     x0,
-                    ym - t_lo,
+                    ym,
+                    t_lo,
                     sqb,
                     sqm,
+                    winv_b,
+                    winv_m,
                     y_floor,
                     fric,
                 )
-                bb, bm, _, _, _ = _rk_step(
-                    table, act, nact, pb, pm, x0, ym, t_hi, sqb, sqm, winv_b, winv_m, fric
-                )
-                g_hi = _event_value(
+                g_hi = _event_after(
                     table,
                     kind,
                     idx,
@@ -1496,12 +1521,15 @@ def _locate(
                     thr,
                     act,
                     nact,
-                    bb,
-                    bm,
+                    pb,
+                    pm,
                     x0,
-                    ym - t_hi,
+                    ym,
+                    t_hi,
                     sqb,
                     sqm,
+                    winv_b,
+                    winv_m,
                     y_floor,
                     fric,
                 )
@@ -1517,11 +1545,25 @@ def _locate(
                 mid = 0.5 * (lo + hi)
         else:
             mid = 0.5 * (lo + hi)
-        nb, nm, _, _, _ = _rk_step(
-            table, act, nact, pb, pm, x0, ym, mid, sqb, sqm, winv_b, winv_m, fric
-        )
-        f_mid = _event_value(
-            table, kind, idx, slot, thr, act, nact, nb, nm, x0, ym - mid, sqb, sqm, y_floor, fric
+        f_mid = _event_after(
+            table,
+            kind,
+            idx,
+            slot,
+            thr,
+            act,
+            nact,
+            pb,
+            pm,
+            x0,
+            ym,
+            mid,
+            sqb,
+            sqm,
+            winv_b,
+            winv_m,
+            y_floor,
+            fric,
         )
         if math.isfinite(f_mid) and f_mid > 0.0:
             lo, f_lo = mid, f_mid
