@@ -46,6 +46,7 @@ from std_msgs.msg import Bool, Header
 from visualization_msgs.msg import MarkerArray
 
 from xface_core.errors import XfaceError
+from xface_core.frames import DockStart
 from xface_core.outcome import Outcome
 from xface_core.predict import predict
 from xface_core.result import Prediction
@@ -316,15 +317,8 @@ class XfacePredictor(Node):
             )
             t0 = time.perf_counter()
             try:
-                prediction = predict(
-                    config.design,
-                    start.x0,
-                    start.theta0,
-                    y_start=start.y_start,
-                    damping_ratio=config.damping_ratio,
-                    friction=config.friction,
-                    path=need_path,
-                    margins=config.need_margins,
+                prediction = _predict_start(
+                    config, start, path=need_path, margins=config.need_margins
                 )
             except XfaceError as exc:
                 raise InputRejected("invalid_input", str(exc)) from exc
@@ -435,15 +429,8 @@ class XfacePredictor(Node):
         )
         try:
             start = start_from_pose(start_msg, config, now_ns=now_ns)
-            prediction = predict(
-                config.design,
-                start.x0,
-                start.theta0,
-                y_start=start.y_start,
-                damping_ratio=config.damping_ratio,
-                friction=config.friction,
-                path=True,
-                margins=config.need_margins or required > 0.0,
+            prediction = _predict_start(
+                config, start, path=True, margins=config.need_margins or required > 0.0
             )
         except InputRejected as exc:
             return self._reject_query(response, config, exc.code, exc.detail)
@@ -560,6 +547,22 @@ class XfacePredictor(Node):
     def destroy_node(self) -> None:
         self.close()
         super().destroy_node()
+
+
+def _predict_start(
+    config: NodeConfig, start: DockStart, *, path: bool, margins: bool
+) -> Prediction:
+    """Predict one start with the node's current design and physics (stream and service)."""
+    return predict(
+        config.design,
+        start.x0,
+        start.theta0,
+        y_start=start.y_start,
+        damping_ratio=config.damping_ratio,
+        friction=config.friction,
+        path=path,
+        margins=margins,
+    )
 
 
 def _median(values: Sequence[float]) -> float:
