@@ -3,31 +3,17 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from enum import IntEnum
 
 import numpy as np
 import numpy.typing as npt
 
+from .codes import Outcome, Phase
 from .geometry import FaceDesign
-from .outcome import Outcome
 
 __all__ = ["AlignmentPath", "Counters", "Margins", "Phase", "Prediction"]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
-
-
-class Phase(IntEnum):
-    """Phase label of one path sample (MODEL.md, "Phases")."""
-
-    APPROACH = 0
-    """Pure translation along -y, angles frozen, no contact yet (or again)."""
-    ALIGN = 1
-    """In contact, the angles still differ: the parts rotate towards (or away from) alignment."""
-    SLIDE = 2
-    """In contact with equal angles: the aligned parts slide into lateral agreement."""
-    END = 3
-    """The final state (seated, jammed or passed)."""
 
 
 @dataclass(frozen=True)
