@@ -2,12 +2,14 @@
 
 Lengths are in units of D unless ``--width`` gives D in metres (or any unit): then x0 and
 y-start are read, and lengths printed, in that unit. Plain text by default, ``--json`` for
-machines.
+machines. Recordings (``--rrd``), pictures (``--png``) and the bench plot need the ``viz``
+extra (rerun-sdk, pillow); without it they exit with code 2 and say so, before simulating.
 """
 
 from __future__ import annotations
 
 import argparse
+import importlib
 import json
 import math
 import sys
@@ -25,6 +27,32 @@ from .predict import predict
 from .sweep import AcceptanceMap, MTable, acceptance_map, m_table
 
 __all__ = ["main"]
+
+#: What to install for the options that record or draw.
+_VIZ_HINT = "pip install 'xface[viz]'"
+
+#: Options that record or draw: (argument name, option, the module of xface_core.viz it needs).
+_VIZ_OPTIONS = (("png", "--png", "mapimage"), ("rrd", "--rrd", "recording"))
+
+
+class _VizMissing(Exception):
+    """An option needs the viz extra, which is not installed (``args[0]`` names it)."""
+
+
+def _check_viz(args: argparse.Namespace) -> None:
+    """Import the viz modules the chosen options need, before any simulation runs."""
+    needed = [
+        (option, module) for name, option, module in _VIZ_OPTIONS if getattr(args, name, None)
+    ]
+    if args.command == "bench":  # the bench always draws its work-precision plot
+        needed.append(("bench", "benchplot"))
+    for option, module in needed:
+        try:
+            importlib.import_module(f"{__package__}.viz.{module}")
+        except ImportError as exc:
+            if (exc.name or "").partition(".")[0] == __package__:
+                raise  # a bug of ours, not a missing extra
+            raise _VizMissing(option) from None
 
 
 def _design_args(
@@ -83,7 +111,7 @@ def _cmd_predict(args: argparse.Namespace) -> int:
         margins=not args.no_margins,
     )
     if args.rrd:
-        from .recording import log_prediction, new_recording
+        from .viz.recording import log_prediction, new_recording
 
         rec = new_recording(path=args.rrd)
         log_prediction(rec, pred)
@@ -171,11 +199,11 @@ def _cmd_map(args: argparse.Namespace) -> int:
         coarse=args.coarse,
     )
     if args.png:
-        from .mapimage import save_map_png
+        from .viz.mapimage import save_map_png
 
         save_map_png(amap, args.png)
     if args.rrd:
-        from .recording import log_acceptance_map, new_recording
+        from .viz.recording import log_acceptance_map, new_recording
 
         rec = new_recording(path=args.rrd)
         log_acceptance_map(rec, amap)
@@ -333,7 +361,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``xface`` console script."""
     args = build_parser().parse_args(argv)
     try:
+        _check_viz(args)
         result: int = args.func(args)
+    except _VizMissing as exc:
+        print(f"xface: {exc.args[0]} needs the viz extra: {_VIZ_HINT}", file=sys.stderr)
+        return 2
     except XfaceError as exc:
         print(f"xface: error: {exc}", file=sys.stderr)
         return 2

@@ -151,6 +151,48 @@ class FaceDesign:
         poly = self.base_layers[layer]
         return np.column_stack((c * poly[:, 0] - s * poly[:, 1], s * poly[:, 0] + c * poly[:, 1]))
 
+    def base_outline_path(self, layer: int, phi_b: npt.ArrayLike) -> FloatArray:
+        """The base part's polygon of ``layer`` at every angle of ``phi_b`` (n,): (n, v, 2),
+        in the world (units of D); :meth:`base_outline_world` for a whole path at once.
+
+        Examples
+        --------
+        >>> d = x_face(0.25, 2.0)
+        >>> outlines = d.base_outline_path(0, [0.0, 0.3])
+        >>> outlines.shape
+        (2, 4, 2)
+        >>> np.allclose(outlines[1], d.base_outline_world(0, 0.3))
+        True
+        """
+        phi = np.asarray(phi_b, dtype=np.float64)
+        c, s = np.cos(phi)[:, None], np.sin(phi)[:, None]
+        poly = self.base_layers[layer]
+        px, py = poly[None, :, 0], poly[None, :, 1]
+        return np.stack((c * px - s * py, s * px + c * py), axis=-1)
+
+    def moving_outline_path(
+        self, layer: int, x0: float, y_m: npt.ArrayLike, phi_m: npt.ArrayLike
+    ) -> FloatArray:
+        """The moving part's polygon of ``layer`` at every sample of a path: pivot at
+        ``(x0, y_m[i])``, angle ``phi_m[i]``; (n, v, 2) in the world (units of D), what
+        :meth:`moving_outline_world` gives per sample.
+
+        Examples
+        --------
+        >>> d = x_face(0.25, 2.0)
+        >>> outlines = d.moving_outline_path(1, 0.1, [4.5, 4.25], [0.2, 0.0])
+        >>> outlines.shape
+        (2, 4, 2)
+        >>> np.allclose(outlines[0], d.moving_outline_world(1, 0.1, 4.5, 0.2))
+        True
+        """
+        phi = np.asarray(phi_m, dtype=np.float64)
+        y = np.asarray(y_m, dtype=np.float64)
+        c, s = np.cos(phi)[:, None], np.sin(phi)[:, None]
+        poly = self.moving_layers[layer]
+        px, py = poly[None, :, 0], poly[None, :, 1]
+        return np.stack((x0 - (c * px - s * py), y[:, None] - (s * px + c * py)), axis=-1)
+
 
 def _moving_to_world(poly: FloatArray, x0: float, y_m: float, phi_m: float) -> FloatArray:
     c, s = math.cos(phi_m), math.sin(phi_m)

@@ -1,7 +1,8 @@
 """Rerun recordings of predictions and acceptance maps, for review in the rerun viewer.
 
-This is the only module of :mod:`xface_core` that imports rerun (``rerun-sdk`` 0.41); the
-package does not import it eagerly. Everything goes through an explicit
+This is the only module of :mod:`xface_core` that imports rerun (``rerun-sdk`` 0.41, from the
+``viz`` extra: ``pip install 'xface[viz]'``); nothing imports it eagerly, so the simulator
+runs without it. Everything goes through an explicit
 :class:`rerun.RecordingStream` made by :func:`new_recording`: no global or thread-local
 rerun state is read or changed.
 
@@ -72,11 +73,12 @@ import rerun as rr
 import rerun.blueprint as rrb
 import shapely
 
-from .errors import XfaceValueError
-from .geometry import FaceDesign
-from .mapimage import AcceptanceMapLike, _checked_grid, guaranteed_cells, outcome_colors
-from .outcome import Outcome
-from .result import Phase, Prediction
+from xface_core.errors import XfaceValueError
+from xface_core.geometry import FaceDesign
+from xface_core.outcome import Outcome
+from xface_core.result import Phase, Prediction
+
+from .mapimage import AcceptanceMapLike, checked_grid, guaranteed_cells, outcome_colors
 
 __all__ = [
     "default_blueprint",
@@ -297,28 +299,20 @@ def log_design(rec: rr.RecordingStream, design: FaceDesign, *, entity: str = "xf
     L = design.mated_distance
     rec.log(f"{e}/design", _Y_UP, static=True)
     for k in range(design.n_layers):
-        base = design.base_outline_world(k, 0.0) * w
-        moving = design.moving_outline_world(k, 0.0, L, 0.0) * w
-        rec.log(
-            f"{e}/design/base/layer{k}",
-            rr.LineStrips2D(
-                [_closed(base)],
-                colors=[_BASE_COLORS[k % 2]],
-                radii=_LINE,
-                labels=[f"base layer {k}"],
-            ),
-            static=True,
-        )
-        rec.log(
-            f"{e}/design/moving/layer{k}",
-            rr.LineStrips2D(
-                [_closed(moving)],
-                colors=[_MOVING_COLORS[k % 2]],
-                radii=_LINE,
-                labels=[f"moving layer {k}"],
-            ),
-            static=True,
-        )
+        for part, outline, colors in (
+            ("base", design.base_outline_world(k, 0.0), _BASE_COLORS),
+            ("moving", design.moving_outline_world(k, 0.0, L, 0.0), _MOVING_COLORS),
+        ):
+            rec.log(
+                f"{e}/design/{part}/layer{k}",
+                rr.LineStrips2D(
+                    [_closed(outline * w)],
+                    colors=[colors[k % 2]],
+                    radii=_LINE,
+                    labels=[f"{part} layer {k}"],
+                ),
+                static=True,
+            )
     rec.log(
         f"{e}/design/pivots",
         rr.Points2D(
@@ -391,26 +385,6 @@ def _style(
     """Static colour and radius of an entity whose data changes along the path (static
     components apply at every time, so the per-sample rows carry only the geometry)."""
     rec.log(entity, archetype.from_fields(colors=[color], radii=radius), static=True)
-
-
-def _base_world(poly: FloatArray, phi_b: FloatArray) -> FloatArray:
-    """Base polygon (v, 2) at each angle of ``phi_b`` (n,): (n, v, 2), ``R(phi_b) v``.
-
-    The vectorised twin of :meth:`FaceDesign.base_outline_world` (a test holds them equal).
-    """
-    c, s = np.cos(phi_b)[:, None], np.sin(phi_b)[:, None]
-    px, py = poly[None, :, 0], poly[None, :, 1]
-    return np.stack((c * px - s * py, s * px + c * py), axis=-1)
-
-
-def _moving_world(poly: FloatArray, x0: float, y_m: FloatArray, phi_m: FloatArray) -> FloatArray:
-    """Moving polygon per sample: ``P_M - R(phi_m) v`` with ``P_M = (x0, y_m)`` (units of D).
-
-    The vectorised twin of :meth:`FaceDesign.moving_outline_world`.
-    """
-    c, s = np.cos(phi_m)[:, None], np.sin(phi_m)[:, None]
-    px, py = poly[None, :, 0], poly[None, :, 1]
-    return np.stack((x0 - (c * px - s * py), y_m[:, None] - (s * px + c * py)), axis=-1)
 
 
 #: What each stream already holds statically, per root entity: the design's key and whether
@@ -517,10 +491,9 @@ def log_prediction(
     _log_statics(rec, e, d, with_design=design)
 
     # Outlines: (n, v + 1, 2) closed polygons per layer and part, in units of D.
-    base_d = [_closed(_base_world(d.base_layers[k], phi_b)) for k in range(d.n_layers)]
+    base_d = [_closed(d.base_outline_path(k, phi_b)) for k in range(d.n_layers)]
     moving_d = [
-        _closed(_moving_world(d.moving_layers[k], x0 / w, y_m / w, phi_m))
-        for k in range(d.n_layers)
+        _closed(d.moving_outline_path(k, x0 / w, y_m / w, phi_m)) for k in range(d.n_layers)
     ]
     first = _indexes(1, descent[:1], ros_stamp_ns)
     for k in range(d.n_layers):
@@ -536,7 +509,7 @@ def log_prediction(
         if abs(x0) <= d.mated_distance * w:
             phi = np.array([d.seated_angle(x0)])
             y_seat = d.mated_distance * np.cos(phi)
-            target = _closed(_moving_world(d.moving_layers[k], x0 / w, y_seat, phi)) * w
+            target = _closed(d.moving_outline_path(k, x0 / w, y_seat, phi)) * w
         rec.send_columns(
             f"{e}/scene/target/layer{k}",
             indexes=first,
@@ -664,8 +637,8 @@ def log_acceptance_map(
 
     The image is a :class:`rerun.SegmentationImage` of Outcome values, one pixel per grid
     cell, coloured and labelled by an annotation context on ``entity`` (the legend: hovering
-    a cell shows its outcome). Like the PNG of :mod:`xface_core.mapimage`, theta0 runs left to
-    right and x0 bottom to top (a static mirror transform on ``{entity}/cells``); view
+    a cell shows its outcome). Like the PNG of :mod:`xface_core.viz.mapimage`, theta0 runs left
+    to right and x0 bottom to top (a static mirror transform on ``{entity}/cells``); view
     coordinates are cell indices (column j, row i). The raw grid goes to ``{entity}/grid`` as
     a tensor with dimensions ("x0", "theta0") and the axes as values; a markdown summary with
     M and the counts to ``{entity}/summary``.
@@ -680,9 +653,9 @@ def log_acceptance_map(
     Raises
     ------
     XfaceValueError
-        The map is malformed (see :func:`xface_core.mapimage.guaranteed_cells`).
+        The map is malformed (see :func:`xface_core.viz.mapimage.guaranteed_cells`).
     """
-    x0, theta0, outcomes = _checked_grid(amap)
+    x0, theta0, outcomes = checked_grid(amap)
     rect = guaranteed_cells(amap)
     e = _root(entity)
     n, m = outcomes.shape

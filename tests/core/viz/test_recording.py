@@ -22,18 +22,18 @@ from rerun.chunk import RrdReader
 
 from xface_core.errors import XfaceValueError
 from xface_core.geometry import FaceDesign, v_face, x_face
-from xface_core.mapimage import outcome_colors
 from xface_core.outcome import Outcome
 from xface_core.predict import predict
-from xface_core.recording import (
+from xface_core.result import AlignmentPath, Counters, Phase, Prediction
+from xface_core.sweep import AcceptanceMap, acceptance_map
+from xface_core.viz.mapimage import outcome_colors
+from xface_core.viz.recording import (
     default_blueprint,
     log_acceptance_map,
     log_design,
     log_prediction,
     new_recording,
 )
-from xface_core.result import AlignmentPath, Counters, Phase, Prediction
-from xface_core.sweep import AcceptanceMap, acceptance_map
 
 RERUN_CLI = Path(sys.executable).with_name("rerun")
 STAMP_NS = 1_700_000_000_123_456_789
@@ -325,7 +325,7 @@ _RECORD_AND_WAIT = """
 import sys, time
 from xface_core.geometry import v_face
 from xface_core.predict import predict
-from xface_core.recording import new_recording, log_prediction
+from xface_core.viz.recording import new_recording, log_prediction
 rec = new_recording(recording_id="interrupted", path=sys.argv[1])
 log_prediction(rec, predict(v_face(1.0, 1.0), 0.1, 0.1))
 print("recorded", flush=True)
@@ -340,7 +340,7 @@ def test_file_is_finished_after_sigint(tmp_path: Path) -> None:
         [sys.executable, "-c", _RECORD_AND_WAIT, str(path)],
         stdout=subprocess.PIPE,
         text=True,
-        cwd=Path(__file__).resolve().parents[2],
+        cwd=Path(__file__).resolve().parents[3],
     )
     try:
         assert proc.stdout is not None
@@ -485,12 +485,16 @@ def record_map(tmp_path: Path, amap: Any) -> Path:
     return path
 
 
-def test_map_image_holds_the_outcomes(tmp_path: Path, small_map: SimpleNamespace) -> None:
-    path = record_map(tmp_path, small_map)
+def map_image(path: Path) -> np.ndarray[Any, np.dtype[np.uint8]]:
+    """The segmentation image of a map recording, as the (rows, columns) array it holds."""
     rb = chunks(path, "/map/cells/image", static=True)[0]
     fmt = rb.column("SegmentationImage:format").to_pylist()[0][0]
     buffer = bytes(rb.column("SegmentationImage:buffer").to_pylist()[0][0])
-    image = np.frombuffer(buffer, dtype=np.uint8).reshape(fmt["height"], fmt["width"])
+    return np.frombuffer(buffer, dtype=np.uint8).reshape(fmt["height"], fmt["width"])
+
+
+def test_map_image_holds_the_outcomes(tmp_path: Path, small_map: SimpleNamespace) -> None:
+    image = map_image(record_map(tmp_path, small_map))
     np.testing.assert_array_equal(image, small_map.outcomes)
 
 
@@ -556,7 +560,7 @@ def test_rerun_cli_is_the_wheels() -> None:
 
 def test_log_prediction_benchmark(benchmark: Any, tmp_path: Path, seated: Prediction) -> None:
     # One real X-Face prediction per call into one file, as the node records a session.
-    # Timed: pytest tests/core/test_recording.py -k benchmark --benchmark-enable
+    # Timed: pytest tests/core/viz/test_recording.py -k benchmark --benchmark-enable
     path = tmp_path / "bench.rrd"
     rec = new_recording(recording_id="bench", path=path)
     benchmark(log_prediction, rec, seated, ros_stamp_ns=STAMP_NS)
@@ -575,11 +579,7 @@ def real_map() -> AcceptanceMap:
 
 
 def test_real_map_image_holds_its_outcomes(tmp_path: Path, real_map: AcceptanceMap) -> None:
-    path = record_map(tmp_path, real_map)
-    rb = chunks(path, "/map/cells/image", static=True)[0]
-    fmt = rb.column("SegmentationImage:format").to_pylist()[0][0]
-    buffer = bytes(rb.column("SegmentationImage:buffer").to_pylist()[0][0])
-    image = np.frombuffer(buffer, dtype=np.uint8).reshape(fmt["height"], fmt["width"])
+    image = map_image(record_map(tmp_path, real_map))
     np.testing.assert_array_equal(image, real_map.outcomes)
 
 

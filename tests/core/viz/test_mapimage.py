@@ -16,15 +16,15 @@ from PIL import Image
 
 from xface_core.errors import XfaceValueError
 from xface_core.geometry import s_face, v_face
-from xface_core.mapimage import (
+from xface_core.outcome import Outcome
+from xface_core.sweep import AcceptanceMap, acceptance_map
+from xface_core.viz.mapimage import (
     GUARANTEED_OUTLINE,
     guaranteed_cells,
     map_to_rgb,
     outcome_colors,
     save_map_png,
 )
-from xface_core.outcome import Outcome
-from xface_core.sweep import AcceptanceMap, acceptance_map
 
 SEATED, BAD, PASSED = int(Outcome.SEATED), int(Outcome.BAD_MATE), int(Outcome.PASSED)
 

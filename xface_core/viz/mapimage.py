@@ -6,7 +6,9 @@ In every picture made here **theta0 runs along the horizontal axis (left to righ
 the vertical axis (bottom to top)**, so the first grid row is the picture's bottom row.
 
 Any object with the attributes of :class:`AcceptanceMapLike` can be drawn; the map type of
-:mod:`xface_core.sweep` is one. This module needs only numpy and pillow (no rerun).
+:mod:`xface_core.sweep` is one. This module needs only numpy and pillow (no rerun);
+:func:`checked_grid` is the one check of a map's shape and values, shared with the rerun
+recordings of :mod:`xface_core.viz.recording`.
 """
 
 from __future__ import annotations
@@ -19,13 +21,14 @@ import numpy as np
 import numpy.typing as npt
 from PIL import Image, ImageDraw, ImageFont
 
-from .errors import XfaceValueError
-from .geometry import FaceDesign
-from .outcome import Outcome
+from xface_core.errors import XfaceValueError
+from xface_core.geometry import FaceDesign
+from xface_core.outcome import Outcome
 
 __all__ = [
     "AcceptanceMapLike",
     "MapPicture",
+    "checked_grid",
     "guaranteed_cells",
     "map_to_rgb",
     "outcome_colors",
@@ -115,10 +118,32 @@ def outcome_colors() -> dict[Outcome, RGB]:
     return dict(_COLORS)
 
 
-def _checked_grid(
+def checked_grid(
     amap: AcceptanceMapLike,
 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.int64]]:
-    """The map's axes and outcomes as plain arrays, or a clear error saying what is wrong."""
+    """The map's axes and outcomes as plain arrays, or a clear error saying what is wrong.
+
+    Every picture and recording of a map starts here.
+
+    Returns
+    -------
+    (x0, theta0, outcomes) : (n,) float, (m,) float, (n, m) int64 arrays
+
+    Raises
+    ------
+    XfaceValueError
+        The axes are not non-empty, finite and strictly increasing, or the outcomes do not
+        match them in shape or hold a value that is not an :class:`Outcome`.
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace
+    >>> amap = SimpleNamespace(x0=[0.0, 1.0], theta0=[0.0], outcomes=[[3], [9]])
+    >>> checked_grid(amap)
+    Traceback (most recent call last):
+    ...
+    xface_core.errors.XfaceValueError: map holds 9, which is not an Outcome value
+    """
     x0 = np.asarray(amap.x0, dtype=np.float64)
     theta0 = np.asarray(amap.theta0, dtype=np.float64)
     raw = np.asarray(amap.outcomes)
@@ -175,7 +200,7 @@ def guaranteed_cells(amap: AcceptanceMapLike) -> tuple[int, int, int, int] | Non
     >>> guaranteed_cells(amap)
     (0, 2, 1, 4)
     """
-    _, _, outcomes = _checked_grid(amap)
+    _, _, outcomes = checked_grid(amap)
     g = amap.guaranteed
     if g is None:
         return None
@@ -260,7 +285,7 @@ def map_to_rgb(amap: AcceptanceMapLike, *, scale: int = 8) -> npt.NDArray[np.uin
     (230, 159, 0)
     """
     scale = _check_scale(scale)
-    _, _, outcomes = _checked_grid(amap)
+    _, _, outcomes = checked_grid(amap)
     lut = np.zeros((len(Outcome), 3), dtype=np.uint8)
     for outcome, color in _COLORS.items():
         lut[int(outcome)] = color
@@ -367,7 +392,7 @@ def save_map_png(
     (28, 20)
     """
     scale = _check_scale(scale)
-    x0, theta0, outcomes = _checked_grid(amap)
+    x0, theta0, outcomes = checked_grid(amap)
     rect = guaranteed_cells(amap)
     design = amap.design
     n, m = outcomes.shape

@@ -1,0 +1,10 @@
+"""Presentation of the simulator's results: rerun recordings and pictures (the ``viz`` extra).
+
+``pip install 'xface[viz]'`` adds rerun-sdk and pillow; the simulator itself needs neither.
+Importing this package imports nothing heavy: import the module you need.
+
+- :mod:`xface_core.viz.recording`: rerun recordings (``.rrd``) of predictions and
+  acceptance maps, with a viewer layout (rerun-sdk).
+- :mod:`xface_core.viz.mapimage`: acceptance maps as PNG pictures (pillow).
+- :mod:`xface_core.viz.benchplot`: the work-precision plot of ``xface bench`` (pillow).
+"""
