@@ -18,11 +18,12 @@ from typing import Any
 
 import numpy as np
 
-from .errors import XfaceError
+from .errors import XfaceError, XfaceValueError
 from .geometry import make_face
 from .grids import ThetaGridKind
 from .outcome import Outcome
 from .paper import PAPER_MEAN_RATIO_XS, PAPER_MEAN_RATIO_XV, mean_ratio, paper_table
+from .physics import DEFAULT_PHYSICS, Physics
 from .predict import predict
 from .sweep import AcceptanceMap, MTable, acceptance_map, m_table
 
@@ -62,8 +63,18 @@ def _design_args(
     p.add_argument("--h-over-d", type=float, default=0.25, help="profile height H / width D")
     p.add_argument("--rp", type=float, default=2.0, help="pivot to profile base, in widths D")
     p.add_argument("--width", type=float, default=1.0, help="face width D (length unit)")
-    p.add_argument("--damping-ratio", type=float, default=1.0, help="c_B / c_M (inf: base fixed)")
+    _physics_args(p)
     p.add_argument("--json", action="store_true", help="machine-readable output")
+
+
+def _physics_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--damping-ratio", type=float, default=1.0, help="c_B / c_M (inf: base fixed)")
+    p.add_argument("--friction", type=float, default=0.0, help="Coulomb coefficient mu (>= 0)")
+
+
+def _physics(args: argparse.Namespace) -> Physics:
+    """The command's physics, validated (an XfaceValueError exits 2 with its message)."""
+    return Physics(damping_ratio=args.damping_ratio, friction=args.friction)
 
 
 def _prediction_json(pred: Any) -> dict[str, Any]:
@@ -101,13 +112,15 @@ def _prediction_json(pred: Any) -> dict[str, Any]:
 
 
 def _cmd_predict(args: argparse.Namespace) -> int:
+    physics = _physics(args)
     design = make_face(args.face, args.h_over_d, args.rp, width=args.width)
     pred = predict(
         design,
         args.x0,
         args.theta0,
         y_start=args.y_start,
-        damping_ratio=args.damping_ratio,
+        damping_ratio=physics.damping_ratio,
+        friction=physics.friction,
         margins=not args.no_margins,
     )
     if args.rrd:
@@ -190,12 +203,14 @@ def _rect_json(amap: AcceptanceMap, rect: Any) -> dict[str, Any] | None:
 
 
 def _cmd_map(args: argparse.Namespace) -> int:
+    physics = _physics(args)
     design = make_face(args.face, args.h_over_d, args.rp, width=args.width)
     amap = acceptance_map(
         design,
         grid=args.grid,
         theta_kind=args.theta_grid,
-        damping_ratio=args.damping_ratio,
+        damping_ratio=physics.damping_ratio,
+        friction=physics.friction,
         coarse=args.coarse,
     )
     if args.png:
@@ -242,17 +257,30 @@ def _cmd_map(args: argparse.Namespace) -> int:
     return 0
 
 
-def _table_for(face: str, args: argparse.Namespace) -> MTable:
+def _table_for(face: str, args: argparse.Namespace, physics: Physics) -> MTable:
     method = args.method
     if method == "bound" and face == "X":
         method = "sim"  # the X-Face has no closed-form bound; the paper simulated it
     theta: ThetaGridKind = args.theta_grid or ("paper" if method == "bound" else "symmetric")
-    return m_table(face, method=method, theta_kind=theta, workers=args.workers)
+    return m_table(
+        face,
+        method=method,
+        theta_kind=theta,
+        damping_ratio=physics.damping_ratio,
+        friction=physics.friction,
+        workers=args.workers,
+    )
 
 
 def _cmd_table(args: argparse.Namespace) -> int:
+    physics = _physics(args)
+    if args.method == "bound" and physics != DEFAULT_PHYSICS:
+        raise XfaceValueError(
+            "the closed-form bound assumes the paper's physics: --damping-ratio and --friction "
+            "apply to --method sim"
+        )
     faces = ["X", "V", "S"] if args.face == "ALL" else [args.face]
-    tables = {f: _table_for(f, args) for f in faces}
+    tables = {f: _table_for(f, args, physics) for f in faces}
     if args.json:
         out = {
             f: {
@@ -346,6 +374,7 @@ def build_parser() -> argparse.ArgumentParser:
         default=None,
         help="default: paper for bounds, symmetric for simulations",
     )
+    _physics_args(p)
     p.add_argument("--workers", type=int, default=None, help="processes (default: all cores)")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=_cmd_table)

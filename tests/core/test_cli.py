@@ -82,3 +82,34 @@ def test_map_png_is_written(tmp_path, capsys: pytest.CaptureFixture[str]) -> Non
     png = tmp_path / "map.png"
     assert main(["map", "--face", "S", "--grid", "11", "--png", str(png)]) == 0
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_friction_reaches_the_simulation(capsys: pytest.CaptureFixture[str]) -> None:
+    argv = ["predict", "--x0", "0.3", "--theta0", "0.2", "--no-margins", "--json"]
+    assert _json(capsys, argv)["outcome"] == "SEATED"
+    assert _json(capsys, [*argv, "--friction", "0.5"])["outcome"] == "BAD_MATE"
+    grid = ["map", "--face", "X", "--grid", "11", "--json"]
+    assert _json(capsys, [*grid, "--friction", "0.5"])["M"] < _json(capsys, grid)["M"]
+
+
+@pytest.mark.parametrize(
+    ("argv", "field"),
+    [
+        (["predict", "--x0", "0", "--theta0", "0", "--friction", "-1"], "friction"),
+        (["map", "--grid", "11", "--friction", "nan"], "friction"),
+        (["map", "--grid", "11", "--damping-ratio", "0"], "damping_ratio"),
+        (["table", "--face", "V", "--friction", "11"], "friction"),
+    ],
+)
+def test_bad_physics_is_a_clear_error(
+    capsys: pytest.CaptureFixture[str], argv: list[str], field: str
+) -> None:
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("xface: error: ")
+    assert field in err
+
+
+def test_table_bound_takes_only_the_papers_physics(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["table", "--face", "V", "--method", "bound", "--friction", "0.2"]) == 2
+    assert "--method sim" in capsys.readouterr().err
