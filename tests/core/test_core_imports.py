@@ -5,6 +5,7 @@ and the options that record or draw say what to install instead of failing with 
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 import textwrap
@@ -45,6 +46,7 @@ _SIMULATE = textwrap.dedent(
     print(xface_core.predict(design, 0.3, 0.2).outcome.name)
     print(xface_core.acceptance_map(design, grid=11).M)
     print(sorted({m.partition(".")[0] for m in sys.modules} & set(BLOCKED)))
+    print(xface_core.__file__)
     """
 )
 
@@ -58,10 +60,13 @@ _CLI = textwrap.dedent(
 
 
 def run_blocked(code: str, *args: str, cwd: Path = ROOT) -> subprocess.CompletedProcess[str]:
-    """Run ``code`` after the blocker in a new interpreter, with ``args`` as sys.argv[1:]."""
+    """Run ``code`` after the blocker in a new interpreter, with ``args`` as sys.argv[1:];
+    it imports the xface_core of this checkout whatever ``cwd`` is."""
+    path = os.pathsep.join(p for p in (str(ROOT), os.environ.get("PYTHONPATH")) if p)
     return subprocess.run(
         [sys.executable, "-c", _BLOCKER + code, *args],
         cwd=cwd,
+        env={**os.environ, "PYTHONPATH": path},
         capture_output=True,
         text=True,
         timeout=300,
@@ -80,10 +85,11 @@ def test_blocker_makes_the_extras_unimportable(module: str) -> None:
 def test_core_imports_and_simulates_without_the_extras() -> None:
     result = run_blocked(_SIMULATE)
     assert result.returncode == 0, result.stderr
-    outcome, m, loaded = result.stdout.splitlines()
+    outcome, m, loaded, location = result.stdout.splitlines()
     assert outcome == "SEATED"
     assert int(m) > 0
     assert loaded == "[]"
+    assert Path(location).parent == ROOT / "xface_core"
 
 
 @pytest.mark.parametrize(
