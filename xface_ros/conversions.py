@@ -1,4 +1,7 @@
-"""Messages <-> xface_core types: input checks, status, path, seated pose, markers.
+"""Messages <-> plain values and xface_core types: input pose, status, path, seated pose, markers.
+
+The rules (input checks, acceptance) are in :mod:`xface_ros.decision`; this module only
+converts.
 
 Frames follow :mod:`xface_core.frames`: every pose is the moving pivot frame in the base
 pivot frame (``base_frame``), as it was at the start of the prediction; lengths in metres.
@@ -6,9 +9,7 @@ pivot frame (``base_frame``), as it was at the start of the prediction; lengths 
 
 from __future__ import annotations
 
-import math
 from collections.abc import Iterable
-from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
@@ -19,70 +20,32 @@ from nav_msgs.msg import Path
 from std_msgs.msg import ColorRGBA, Header
 from visualization_msgs.msg import Marker, MarkerArray
 
-from xface_core.errors import XfaceError
 from xface_core.frames import (
-    AbsurdDistanceError,
-    DockStart,
-    NonFiniteInputError,
-    NonPlanarOrientationError,
-    NonUnitQuaternionError,
     PlanarPose,
-    check_distance,
-    moving_pose,
     path_poses,
-    planar_yaw,
-    relative_pose_to_start,
     yaw_to_quaternion,
 )
 from xface_core.outcome import Outcome
-from xface_core.result import Margins, Prediction
-from xface_ros.params import NodeConfig
+from xface_core.result import Prediction
+from xface_ros.decision import PoseInput, Predicted, Rejected
 
 __all__ = [
-    "INPUT_ERRORS",
     "STATUS_NAME",
-    "Decision",
-    "InputRejected",
-    "combined_margin",
-    "decide",
     "input_error_status",
+    "key_value",
     "markers_msg",
     "ns_to_stamp",
     "path_indices",
     "path_msg",
     "planar_to_pose",
-    "pose_to_planar",
+    "pose_input",
     "prediction_status",
     "seated_pose_msg",
     "stamp_to_ns",
-    "start_from_pose",
 ]
 
 #: Name of every DiagnosticStatus on ``prediction/status``.
 STATUS_NAME = "xface_predictor: prediction"
-
-#: Input error codes (the ``input_error`` value of an ERROR status), with what they mean.
-INPUT_ERRORS: dict[str, str] = {
-    "non_finite": "a position or quaternion component is NaN or infinite",
-    "wrong_frame": "header.frame_id is not the base_frame parameter",
-    "stale_stamp": "the stamp is older than input_timeout_s",
-    "future_stamp": "the stamp lies more than input_timeout_s in the future",
-    "unnormalised_quaternion": "the quaternion's norm is not 1",
-    "non_planar": "the orientation rolls or pitches beyond max_tilt_rad",
-    "absurd_distance": "|x| or |y| is beyond max_distance_widths face widths",
-    "no_pose": "no pose has been received yet (service: empty start frame id)",
-    "invalid_input": "the simulator refused the start (e.g. the parts interpenetrate)",
-    "internal_error": "the simulator failed unexpectedly (a bug: the message has the details)",
-}
-
-
-class InputRejected(Exception):
-    """An input pose that is not predicted; ``code`` is a key of :data:`INPUT_ERRORS`."""
-
-    def __init__(self, code: str, detail: str) -> None:
-        super().__init__(f"{code}: {detail}")
-        self.code = code
-        self.detail = detail
 
 
 def stamp_to_ns(stamp: Time) -> int:
@@ -96,16 +59,15 @@ def ns_to_stamp(ns: int) -> Time:
     return Time(sec=sec, nanosec=nanosec)
 
 
-def pose_to_planar(pose: Pose, *, max_tilt_rad: float) -> PlanarPose:
-    """The planar pose (x, y, yaw) of a ``geometry_msgs/Pose`` (z is ignored: planar model).
-
-    Raises the :mod:`xface_core.frames` input errors (non-finite, non-unit, non-planar).
-    """
-    p, q = pose.position, pose.orientation
-    if not all(math.isfinite(v) for v in (p.x, p.y, p.z)):
-        raise NonFiniteInputError(f"position has a non-finite component: ({p.x}, {p.y}, {p.z})")
-    yaw = planar_yaw(q.x, q.y, q.z, q.w, max_tilt_rad=max_tilt_rad)
-    return PlanarPose(float(p.x), float(p.y), yaw)
+def pose_input(msg: PoseStamped) -> PoseInput:
+    """The plain values of a received pose, for :mod:`xface_ros.decision` (nothing checked)."""
+    p, q = msg.pose.position, msg.pose.orientation
+    return PoseInput(
+        frame_id=str(msg.header.frame_id),
+        stamp_ns=stamp_to_ns(msg.header.stamp),
+        position=(float(p.x), float(p.y), float(p.z)),
+        orientation=(float(q.x), float(q.y), float(q.z), float(q.w)),
+    )
 
 
 def planar_to_pose(pose: PlanarPose) -> Pose:
@@ -117,126 +79,34 @@ def planar_to_pose(pose: PlanarPose) -> Pose:
     )
 
 
-def start_from_pose(msg: PoseStamped, config: NodeConfig, *, now_ns: int | None) -> DockStart:
-    """Check an input pose and convert it to the simulator's start.
-
-    ``now_ns`` is the node clock; None skips the stamp check (planner queries about
-    hypothetical poses). Checks run in a fixed order: frame, finiteness, stamp, quaternion,
-    distance.
-
-    Raises
-    ------
-    InputRejected
-    """
-    frame = msg.header.frame_id
-    if frame != config.base_frame:
-        raise InputRejected(
-            "wrong_frame", f"frame_id {frame!r} is not the base frame {config.base_frame!r}"
-        )
-    p, q = msg.pose.position, msg.pose.orientation
-    values = (p.x, p.y, p.z, q.x, q.y, q.z, q.w)
-    if not all(math.isfinite(v) for v in values):
-        raise InputRejected(
-            "non_finite", f"position ({p.x}, {p.y}, {p.z}), quaternion ({q.x}, {q.y}, {q.z}, {q.w})"
-        )
-    if now_ns is not None and config.input_timeout_s > 0.0:
-        age_s = (now_ns - stamp_to_ns(msg.header.stamp)) * 1e-9
-        if age_s > config.input_timeout_s:
-            raise InputRejected(
-                "stale_stamp",
-                f"pose is {age_s:.3f} s old, input_timeout_s {config.input_timeout_s:g}",
-            )
-        if -age_s > config.input_timeout_s:
-            raise InputRejected(
-                "future_stamp", f"pose stamp is {-age_s:.3f} s ahead of the node clock"
-            )
-    try:
-        planar = pose_to_planar(msg.pose, max_tilt_rad=config.max_tilt_rad)
-        check_distance(
-            planar.x, planar.y, width=config.width_m, max_widths=config.max_distance_widths
-        )
-    except NonUnitQuaternionError as exc:
-        raise InputRejected("unnormalised_quaternion", str(exc)) from exc
-    except NonPlanarOrientationError as exc:
-        raise InputRejected("non_planar", str(exc)) from exc
-    except AbsurdDistanceError as exc:
-        raise InputRejected("absurd_distance", str(exc)) from exc
-    except XfaceError as exc:  # non-finite after all (cannot happen after the check above)
-        raise InputRejected("non_finite", str(exc)) from exc
-    return relative_pose_to_start(planar)
-
-
-def combined_margin(margins: Margins, width: float) -> float:
-    """One margin in metres: the smaller of the lateral margin and D times the angle margin.
-
-    The paper's acceptance maps have axes x0 / D and theta0 (rad); measuring both in those
-    units and scaling by D gives a length: the distance, along either axis of the map, to the
-    nearest pose with another outcome.
-    """
-    return min(margins.lateral, margins.angle * width)
-
-
-@dataclass(frozen=True)
-class Decision:
-    """Whether a prediction counts as accepted, and why."""
-
-    accepted: bool
-    margin_m: float | None
-    """Combined margin (m), None when margins were not computed."""
-    required_m: float
-    why: str
-
-
-def decide(prediction: Prediction, *, required_margin_m: float) -> Decision:
-    """Accepted = it seats and (when a margin is required) the combined margin suffices."""
-    margin = (
-        None
-        if prediction.margins is None
-        else combined_margin(prediction.margins, prediction.design.width)
-    )
-    if not prediction.seated:
-        return Decision(False, margin, required_margin_m, f"{prediction.outcome.name}")
-    if required_margin_m > 0.0:
-        if margin is None:
-            return Decision(False, None, required_margin_m, "margin required but not computed")
-        if margin < required_margin_m:
-            return Decision(
-                False,
-                margin,
-                required_margin_m,
-                f"seats, but margin {margin:.4g} m < required {required_margin_m:.4g} m",
-            )
-    return Decision(True, margin, required_margin_m, "seats")
-
-
-def _kv(key: str, value: object) -> KeyValue:
-    if isinstance(value, float):
-        text = repr(value)  # round-trips exactly
-    elif isinstance(value, bool):
+def key_value(key: str, value: object) -> KeyValue:
+    """A diagnostics value: floats as ``repr`` (they parse back exactly), bools as
+    ``true`` / ``false``, None as ``""``, anything else as ``str``."""
+    if isinstance(value, bool):
         text = "true" if value else "false"
+    elif value is None:
+        text = ""
+    elif isinstance(value, float):
+        text = repr(value)
     else:
         text = str(value)
     return KeyValue(key=key, value=text)
 
 
-def _stamp_text(stamp: Time) -> str:
-    return f"{int(stamp.sec)}.{int(stamp.nanosec):09d}"
+def _stamp_text(stamp_ns: int) -> str:
+    sec, nanosec = divmod(int(stamp_ns), 1_000_000_000)
+    return f"{sec}.{nanosec:09d}"
 
 
-def prediction_status(
-    prediction: Prediction,
-    decision: Decision,
-    *,
-    stamp: Time,
-    compute_s: float,
-    hardware_id: str,
-) -> DiagnosticStatus:
+def prediction_status(predicted: Predicted, *, hardware_id: str) -> DiagnosticStatus:
     """The ``prediction/status`` message of a prediction.
 
     Level OK when accepted, WARN otherwise (will not seat, or seats without the required
     margin), ERROR when the simulator called the input invalid. The message is
-    ``"<OUTCOME>: <reason>"``; values are listed in docs/ros.md.
+    ``"<OUTCOME>: <reason>"``; values (lengths in m, angles in rad, times in ms) are listed
+    in docs/ros.md.
     """
+    prediction, decision = predicted.prediction, predicted.decision
     if prediction.outcome is Outcome.INVALID_INPUT:
         level = DiagnosticStatus.ERROR
     elif decision.accepted:
@@ -246,64 +116,72 @@ def prediction_status(
     message = f"{prediction.outcome.name}: {prediction.reason}"
     if prediction.seated and not decision.accepted:
         message += f" ({decision.why})"
-    design = prediction.design
     values = [
-        _kv("outcome", prediction.outcome.name),
-        _kv("outcome_code", int(prediction.outcome)),
-        _kv("accepted", decision.accepted),
-        _kv("x0_m", prediction.x0),
-        _kv("theta0_rad", prediction.theta0),
-        _kv("y_start_m", prediction.y_start),
-        _kv("required_margin_m", decision.required_m),
+        key_value("outcome", prediction.outcome.name),
+        key_value("outcome_code", int(prediction.outcome)),
+        key_value("accepted", decision.accepted),
+        key_value("x0_m", prediction.x0),
+        key_value("theta0_rad", prediction.theta0),
+        key_value("y_start_m", prediction.y_start),
+        key_value("required_margin_m", decision.required_m),
     ]
     if prediction.margins is not None:
         m = prediction.margins
         values += [
-            _kv("margin_m", float(decision.margin_m) if decision.margin_m is not None else ""),
-            _kv("margin_lateral_minus_m", m.lateral_minus),
-            _kv("margin_lateral_plus_m", m.lateral_plus),
-            _kv("margin_angle_minus_rad", m.angle_minus),
-            _kv("margin_angle_plus_rad", m.angle_plus),
+            key_value("margin_m", decision.margin_m),
+            key_value("margin_lateral_minus_m", m.lateral_minus),
+            key_value("margin_lateral_plus_m", m.lateral_plus),
+            key_value("margin_angle_minus_rad", m.angle_minus),
+            key_value("margin_angle_plus_rad", m.angle_plus),
         ]
-    seat = moving_pose(prediction.pivot_m[0], prediction.pivot_m[1], prediction.phi_m)
-    c = prediction.counters
+    values += _final_values(predicted)
+    values.append(key_value("compute_time_ms", predicted.compute_s * 1e3))
+    values += _stamp_values(predicted.stamp_ns)
+    design = prediction.design
     values += [
-        _kv("final_phi_b_rad", prediction.phi_b),
-        _kv("final_phi_m_rad", prediction.phi_m),
-        _kv("final_x_m", seat.x),
-        _kv("final_y_m", seat.y),
-        _kv("final_yaw_rad", seat.yaw),
-        _kv("steps", c.steps),
-        _kv("events", c.events),
-        _kv("contact_changes", c.contact_changes),
-        _kv("rejected_steps", c.rejected_steps),
-        _kv("compute_time_ms", compute_s * 1e3),
-        _kv("input_stamp", _stamp_text(stamp)),
-        _kv("input_stamp_ns", stamp_to_ns(stamp)),
-        _kv("face", design.kind),
-        _kv("width_m", design.width),
-        _kv("h_over_d", design.h_over_d),
-        _kv("r_p", design.r_p),
+        key_value("face", design.kind),
+        key_value("width_m", design.width),
+        key_value("h_over_d", design.h_over_d),
+        key_value("r_p", design.r_p),
     ]
     return DiagnosticStatus(
         level=level, name=STATUS_NAME, message=message, hardware_id=hardware_id, values=values
     )
 
 
-def input_error_status(error: InputRejected, *, stamp: Time, hardware_id: str) -> DiagnosticStatus:
+def _final_values(predicted: Predicted) -> list[KeyValue]:
+    """The final state (angles in rad, pose in m and rad) and the simulator's work."""
+    p, seat, c = predicted.prediction, predicted.final_pose, predicted.prediction.counters
+    return [
+        key_value("final_phi_b_rad", p.phi_b),
+        key_value("final_phi_m_rad", p.phi_m),
+        key_value("final_x_m", seat.x),
+        key_value("final_y_m", seat.y),
+        key_value("final_yaw_rad", seat.yaw),
+        key_value("steps", c.steps),
+        key_value("events", c.events),
+        key_value("contact_changes", c.contact_changes),
+        key_value("rejected_steps", c.rejected_steps),
+    ]
+
+
+def _stamp_values(stamp_ns: int) -> list[KeyValue]:
+    return [key_value("input_stamp", _stamp_text(stamp_ns)), key_value("input_stamp_ns", stamp_ns)]
+
+
+def input_error_status(rejected: Rejected, *, hardware_id: str) -> DiagnosticStatus:
     """The ERROR ``prediction/status`` of a rejected input."""
     return DiagnosticStatus(
         level=DiagnosticStatus.ERROR,
         name=STATUS_NAME,
-        message=f"INVALID_INPUT: {error.code}: {error.detail}",
+        message=f"INVALID_INPUT: {rejected.code}: {rejected.detail}",
         hardware_id=hardware_id,
         values=[
-            _kv("outcome", Outcome.INVALID_INPUT.name),
-            _kv("outcome_code", int(Outcome.INVALID_INPUT)),
-            _kv("accepted", False),
-            _kv("input_error", error.code),
-            _kv("input_stamp", _stamp_text(stamp)),
-            _kv("input_stamp_ns", stamp_to_ns(stamp)),
+            key_value("outcome", Outcome.INVALID_INPUT.name),
+            key_value("outcome_code", int(Outcome.INVALID_INPUT)),
+            key_value("accepted", False),
+            key_value("input_error", rejected.code),
+            *_stamp_values(rejected.stamp_ns),
         ],
     )
 
@@ -340,10 +218,10 @@ def path_msg(prediction: Prediction, header: Header, *, max_poses: int) -> Path:
     return msg
 
 
-def seated_pose_msg(prediction: Prediction, header: Header) -> PoseStamped:
-    """The final pose of the moving pivot frame (the seat, when it seats)."""
-    final = moving_pose(prediction.pivot_m[0], prediction.pivot_m[1], prediction.phi_m)
-    return PoseStamped(header=header, pose=planar_to_pose(final))
+def seated_pose_msg(seat: PlanarPose, header: Header) -> PoseStamped:
+    """The pose the moving pivot frame seats at (:attr:`Predicted.seated_pose
+    <xface_ros.decision.Predicted.seated_pose>`) as a ``geometry_msgs/PoseStamped``."""
+    return PoseStamped(header=header, pose=planar_to_pose(seat))
 
 
 # --- markers ----------------------------------------------------------------------------------

@@ -4,7 +4,7 @@
 
 1. starts ``xface_predictor`` as a separate process (``python -m xface_ros`` with
    config/xface.yaml when this is a source checkout, the built-in defaults otherwise) with a
-   rerun recording switched on when :mod:`xface_core.recording` is available;
+   rerun recording switched on when :mod:`xface_core.viz.recording` is available;
 2. runs the bundled :class:`~xface_ros.pose_source.PoseSource` (a sweep of poses, some of
    which seat and some not) and prints every prediction as it arrives;
 3. after ``--duration`` seconds (default 15) or on Ctrl-C, stops the node with SIGINT (which
@@ -103,7 +103,7 @@ def main(argv: list[str] | None = None) -> int:
     from xface_ros.node import RESULT_QOS
     from xface_ros.pose_source import PoseSource
 
-    recording_available = importlib.util.find_spec("xface_core.recording") is not None
+    recording_available = importlib.util.find_spec("xface_core.viz.recording") is not None
     record_path = None if args.no_record or not recording_available else args.record.resolve()
     if record_path is not None and record_path.exists():
         record_path.unlink()  # a stale file from an earlier run would look like this run's
@@ -198,7 +198,7 @@ def main(argv: list[str] | None = None) -> int:
             print(f"xface demo: recording {record_path} ({size} bytes)")
             print(f"xface demo: view it with `rerun {record_path}`")
         elif not recording_available:
-            print("xface demo: no recording (xface_core.recording is not available)")
+            print("xface demo: no recording (xface_core.viz.recording is not available)")
         print(f"xface demo: node exited with code {node_code}", flush=True)
         code = 0 if (node_code == 0 and predicted > 0) else 1
     return code

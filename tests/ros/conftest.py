@@ -43,6 +43,7 @@ from std_msgs.msg import Bool
 from visualization_msgs.msg import MarkerArray
 
 from xface_core.frames import yaw_to_quaternion
+from xface_ros.diagnostics import WARMING_UP_MESSAGE
 
 ROOT = Path(__file__).resolve().parents[2]
 DEFAULT_PARAMS_FILE = ROOT / "config" / "xface.yaml"
@@ -231,15 +232,28 @@ class RosClient:
         return self.markers
 
     def wait_for_node(self, node: NodeProcess, timeout_s: float = STARTUP_TIMEOUT_S) -> None:
-        """Wait until the node's service answers and it subscribes to our pose topic."""
+        """Wait until the node's service is up, it subscribes to our pose topic and its
+        diagnostics say the warm-up is over (its interfaces come up before the warm-up)."""
         deadline = time.monotonic() + timeout_s
         while time.monotonic() < deadline:
             if node.process.poll() is not None:
                 pytest.fail(f"node exited with {node.process.returncode}:\n{node.log()}")
-            if self.plan_client.service_is_ready() and self.pose_pub.get_subscription_count() > 0:
+            if (
+                self.plan_client.service_is_ready()
+                and self.pose_pub.get_subscription_count() > 0
+                and self.node_warmed_up()
+            ):
                 return
             time.sleep(0.1)
         pytest.fail(f"node not ready within {timeout_s:g} s:\n{node.log()}")
+
+    def node_warmed_up(self) -> bool:
+        """A predictor status on /diagnostics that no longer says "warming up"."""
+        return any(
+            status.name == f"{NODE_NAME}: predictor" and status.message != WARMING_UP_MESSAGE
+            for array in self.diagnostics.snapshot()
+            for status in array.status
+        )
 
     def next_stamp_ns(self) -> int:
         """A fresh stamp (node clock = wall clock on this host), strictly increasing."""
@@ -388,6 +402,16 @@ def launch(ros_domain_id: int, tmp_path: Path) -> Iterator[Callable[..., Running
     codes = [node.stop(signal.SIGINT) if node.process.poll() is None else None for node in nodes]
     for node, code in zip(nodes, codes, strict=True):
         assert code in (None, 0), node.log()
+
+
+@pytest.fixture
+def ros_client(ros_domain_id: int) -> Iterator[RosClient]:
+    """A test-side client in this test's domain, for a node the test runs itself."""
+    client = RosClient(ros_domain_id)
+    try:
+        yield client
+    finally:
+        client.close()
 
 
 @pytest.fixture(scope="module")

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
-from typing import Any
 
 import numpy as np
 import pytest
@@ -14,6 +13,7 @@ from std_msgs.msg import Header
 from visualization_msgs.msg import Marker
 
 from xface_core.frames import (
+    DockStart,
     PlanarPose,
     mated_pose,
     path_poses,
@@ -23,21 +23,26 @@ from xface_core.frames import (
 )
 from xface_core.outcome import Outcome
 from xface_core.predict import predict
-from xface_core.result import Counters, Margins, Prediction
+from xface_core.result import Margins, Prediction
 from xface_ros.conversions import (
-    INPUT_ERRORS,
-    InputRejected,
-    combined_margin,
-    decide,
     input_error_status,
+    key_value,
     markers_msg,
     ns_to_stamp,
     path_indices,
     path_msg,
+    pose_input,
     prediction_status,
     seated_pose_msg,
     stamp_to_ns,
-    start_from_pose,
+)
+from xface_ros.decision import (
+    INPUT_ERRORS,
+    PoseInput,
+    Predicted,
+    Rejected,
+    check_pose,
+    decide,
 )
 from xface_ros.params import SPECS, NodeConfig, config_from_values
 
@@ -49,21 +54,16 @@ def config() -> NodeConfig:
     return config_from_values({spec.name: spec.default for spec in SPECS})
 
 
-def pose(
-    x: float = 0.01,
-    y: float = 0.15,
-    yaw: float = math.pi - 0.2,
-    *,
-    frame: str = "xface_base",
-    stamp_ns: int = NOW_NS,
-    quaternion: tuple[float, float, float, float] | None = None,
+def message(
+    x: float, y: float, z: float, quaternion: tuple[float, ...], stamp_ns: int
 ) -> PoseStamped:
+    """A pose message in the base frame (m, quaternion x, y, z, w, ns)."""
     msg = PoseStamped()
-    msg.header.frame_id = frame
+    msg.header.frame_id = "xface_base"
     msg.header.stamp = ns_to_stamp(stamp_ns)
-    msg.pose.position.x, msg.pose.position.y = x, y
-    o = msg.pose.orientation
-    o.x, o.y, o.z, o.w = yaw_to_quaternion(yaw) if quaternion is None else quaternion
+    p, o = msg.pose.position, msg.pose.orientation
+    p.x, p.y, p.z = x, y, z
+    o.x, o.y, o.z, o.w = quaternion
     return msg
 
 
@@ -75,116 +75,45 @@ def test_stamp_round_trips() -> None:
     assert stamp_to_ns(ns_to_stamp(NOW_NS + 123)) == NOW_NS + 123
 
 
+def test_pose_input_carries_the_message_values_exactly() -> None:
+    msg = message(0.01, 0.15, 0.7, (0.1, 0.2, 0.3, 0.4), NOW_NS + 5)
+    assert pose_input(msg) == PoseInput(
+        "xface_base", NOW_NS + 5, (0.01, 0.15, 0.7), (0.1, 0.2, 0.3, 0.4)
+    )
+
+
 def test_good_pose_converts_like_the_frames_module(config: NodeConfig) -> None:
-    msg = pose()
-    start = start_from_pose(msg, config, now_ns=NOW_NS + 1000)
-    o = msg.pose.orientation
-    expected = relative_pose_to_start(PlanarPose(0.01, 0.15, planar_yaw(o.x, o.y, o.z, o.w)))
-    assert start == expected
-    assert start.theta0 == pytest.approx(-0.2)
+    q = yaw_to_quaternion(math.pi - 0.2)
+    start = check_pose(pose_input(message(0.01, 0.15, 0.0, q, NOW_NS)), config, now_ns=NOW_NS)
+    assert start == relative_pose_to_start(PlanarPose(0.01, 0.15, planar_yaw(*q)))
 
 
-def bad_inputs() -> list[tuple[str, dict[str, Any]]]:
-    s = math.sin(0.2)
-    return [
-        ("wrong_frame", {"frame": "map"}),
-        ("wrong_frame", {"frame": ""}),
-        ("non_finite", {"x": math.nan}),
-        ("non_finite", {"y": math.inf}),
-        ("non_finite", {"quaternion": (0.0, 0.0, math.nan, 1.0)}),
-        ("stale_stamp", {"stamp_ns": NOW_NS - 2_000_000_000}),
-        ("stale_stamp", {"stamp_ns": 0}),
-        ("future_stamp", {"stamp_ns": NOW_NS + 2_000_000_000}),
-        ("unnormalised_quaternion", {"quaternion": (0.0, 0.0, 0.0, 0.0)}),
-        ("unnormalised_quaternion", {"quaternion": (0.0, 0.0, 1.0, 1.0)}),
-        ("non_planar", {"quaternion": (s, 0.0, 0.0, math.cos(0.2))}),  # roll 0.4 rad
-        ("absurd_distance", {"x": 60.0}),  # 1200 widths of 5 cm
-        ("absurd_distance", {"y": -51.0}),
-    ]
-
-
-@pytest.mark.parametrize(("code", "kwargs"), bad_inputs())
-def test_each_bad_input_is_rejected_with_its_code(
-    config: NodeConfig, code: str, kwargs: dict[str, Any]
-) -> None:
-    assert code in INPUT_ERRORS
-    with pytest.raises(InputRejected) as info:
-        start_from_pose(pose(**kwargs), config, now_ns=NOW_NS)
-    assert info.value.code == code
-    status = input_error_status(info.value, stamp=ns_to_stamp(NOW_NS), hardware_id="xface_base")
+@pytest.mark.parametrize("code", sorted(INPUT_ERRORS))
+def test_each_input_error_gives_an_error_status(code: str) -> None:
+    status = input_error_status(Rejected(NOW_NS, code, "why"), hardware_id="xface_base")
     assert status.level == DiagnosticStatus.ERROR
     assert values(status)["input_error"] == code
-    assert status.message.startswith(f"INVALID_INPUT: {code}: ")
+    assert values(status)["input_stamp_ns"] == str(NOW_NS)
+    assert status.message == f"INVALID_INPUT: {code}: why"
 
 
-def test_planner_queries_skip_the_stamp_check(config: NodeConfig) -> None:
-    start = start_from_pose(pose(stamp_ns=0), config, now_ns=None)
-    assert start.x0 == 0.01
+def test_key_values_parse_back_exactly() -> None:
+    assert key_value("a", 0.1 + 0.2).value == repr(0.1 + 0.2)
+    assert key_value("a", True).value == "true"
+    assert key_value("a", None).value == ""
+    assert key_value("a", 3).value == "3"
 
 
-def test_zero_timeout_disables_the_stamp_check(config: NodeConfig) -> None:
-    no_timeout = replace(config, input_timeout_s=0.0)
-    assert start_from_pose(pose(stamp_ns=0), no_timeout, now_ns=NOW_NS).x0 == 0.01
-
-
-def hand_prediction(outcome: Outcome, margins: Margins | None, config: NodeConfig) -> Prediction:
-    """A Prediction built by hand: only the fields the decision reads matter here."""
-    return Prediction(
-        design=config.design, x0=0.0, theta0=0.0, y_start=0.2, outcome=outcome, reason="r",
-        phi_b=0.0, phi_m=0.0, pivot_m=(0.0, 0.1), counters=Counters(1, 1, 1), margins=margins,
-    )  # fmt: skip
-
-
-def test_combined_margin_is_the_smaller_of_lateral_and_width_times_angle() -> None:
-    margins = Margins(lateral_minus=0.02, lateral_plus=0.03, angle_minus=0.5, angle_plus=0.1)
-    assert combined_margin(margins, 0.05) == pytest.approx(0.005)  # 0.1 rad x 5 cm
-    assert combined_margin(margins, 1.0) == pytest.approx(0.02)
-
-
-def test_decision_accepts_a_seat_with_enough_margin(config: NodeConfig) -> None:
-    margins = Margins(0.02, 0.03, 0.5, 0.1)
-    seated = hand_prediction(Outcome.SEATED, margins, config)
-    assert decide(seated, required_margin_m=0.0).accepted
-    assert decide(seated, required_margin_m=0.004).accepted
-    short = decide(seated, required_margin_m=0.006)
-    assert not short.accepted
-    assert "margin" in short.why
-
-
-def test_decision_rejects_every_other_outcome_whatever_the_margin(config: NodeConfig) -> None:
-    for outcome in Outcome:
-        if outcome is not Outcome.SEATED:
-            p = hand_prediction(outcome, Margins(1.0, 1.0, 1.0, 1.0), config)
-            assert not decide(p, required_margin_m=0.0).accepted
-
-
-def test_decision_without_margins_cannot_meet_a_required_margin(config: NodeConfig) -> None:
-    seated = hand_prediction(Outcome.SEATED, None, config)
-    assert decide(seated, required_margin_m=0.0).accepted
-    assert not decide(seated, required_margin_m=0.001).accepted
-
-
-def test_status_levels_follow_the_decision(config: NodeConfig) -> None:
-    stamp = ns_to_stamp(NOW_NS)
-    levels = {}
-    for outcome, required in [
-        (Outcome.SEATED, 0.0),
-        (Outcome.SEATED, 1.0),
-        (Outcome.BAD_MATE, 0.0),
-        (Outcome.INVALID_INPUT, 0.0),
-    ]:
-        p = hand_prediction(outcome, Margins(0.01, 0.01, 0.1, 0.1), config)
-        status = prediction_status(
-            p, decide(p, required_margin_m=required), stamp=stamp, compute_s=0.001,
-            hardware_id="xface_base",
-        )  # fmt: skip
-        levels[(outcome, required)] = status.level
-    assert levels == {
-        (Outcome.SEATED, 0.0): DiagnosticStatus.OK,
-        (Outcome.SEATED, 1.0): DiagnosticStatus.WARN,
-        (Outcome.BAD_MATE, 0.0): DiagnosticStatus.WARN,
-        (Outcome.INVALID_INPUT, 0.0): DiagnosticStatus.ERROR,
-    }
+def predicted(
+    prediction: Prediction,
+    *,
+    required_m: float = 0.0,
+    stamp_ns: int = NOW_NS,
+    compute_s: float = 0.001,
+) -> Predicted:
+    start = DockStart(prediction.x0, prediction.theta0, prediction.y_start)
+    decision = decide(prediction, required_margin_m=required_m)
+    return Predicted(stamp_ns, start, prediction, decision, compute_s)
 
 
 @pytest.fixture(scope="module")
@@ -194,12 +123,29 @@ def seated(config: NodeConfig) -> Prediction:
     return prediction
 
 
+def test_status_levels_follow_the_decision(seated: Prediction) -> None:
+    levels = {}
+    for outcome, required in [
+        (Outcome.SEATED, 0.0),
+        (Outcome.SEATED, 1.0),
+        (Outcome.BAD_MATE, 0.0),
+        (Outcome.INVALID_INPUT, 0.0),
+    ]:
+        p = replace(seated, outcome=outcome, margins=Margins(0.01, 0.01, 0.1, 0.1))
+        status = prediction_status(predicted(p, required_m=required), hardware_id="xface_base")
+        levels[(outcome, required)] = status.level
+    assert levels == {
+        (Outcome.SEATED, 0.0): DiagnosticStatus.OK,
+        (Outcome.SEATED, 1.0): DiagnosticStatus.WARN,
+        (Outcome.BAD_MATE, 0.0): DiagnosticStatus.WARN,
+        (Outcome.INVALID_INPUT, 0.0): DiagnosticStatus.ERROR,
+    }
+
+
 def test_status_values_carry_the_prediction_exactly(seated: Prediction) -> None:
-    stamp = ns_to_stamp(NOW_NS + 7)
     status = prediction_status(
-        seated, decide(seated, required_margin_m=0.0), stamp=stamp, compute_s=0.002,
-        hardware_id="xface_base",
-    )  # fmt: skip
+        predicted(seated, stamp_ns=NOW_NS + 7, compute_s=0.002), hardware_id="xface_base"
+    )
     v = values(status)
     assert status.message.startswith("SEATED: ")
     assert v["outcome_code"] == str(int(Outcome.SEATED))
@@ -239,7 +185,9 @@ def test_path_message_holds_the_predicted_poses(seated: Prediction) -> None:
 
 
 def test_seated_pose_is_the_mated_pose_of_the_offset(seated: Prediction) -> None:
-    msg = seated_pose_msg(seated, Header(frame_id="xface_base"))
+    seat = predicted(seated).seated_pose
+    assert seat is not None
+    msg = seated_pose_msg(seat, Header(frame_id="xface_base"))
     expected = mated_pose(seated.design, seated.x0)
     o = msg.pose.orientation
     assert msg.pose.position.x == pytest.approx(expected.x, abs=1e-9)

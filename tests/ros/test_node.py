@@ -28,7 +28,8 @@ from xface_core.geometry import make_face
 from xface_core.outcome import Outcome
 from xface_core.predict import predict
 from xface_core.result import Prediction
-from xface_ros.conversions import combined_margin, path_indices
+from xface_ros.conversions import path_indices
+from xface_ros.decision import combined_margin
 
 pytestmark = pytest.mark.ros
 

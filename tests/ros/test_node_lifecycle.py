@@ -112,7 +112,7 @@ def test_signal_stops_the_node_with_exit_code_zero(launch: Any, sig: int) -> Non
 
 
 def test_recording_is_finished_on_shutdown(launch: Any, tmp_path: Path) -> None:
-    pytest.importorskip("xface_core.recording")
+    pytest.importorskip("xface_core.viz.recording")
     rrd = tmp_path / "run.rrd"
     running = launch(compute_margins=False, record=True, record_path=str(rrd))
     stream(running, 0.3, 0.2)

@@ -1,0 +1,397 @@
+"""The node's decisions without ROS: input checks, which start, acceptance, verdicts, stats.
+
+Nothing here imports rclpy or a message package; the last test runs this whole module (and
+tests/ros/test_worker.py) again in a fresh interpreter in which no ROS module can be
+imported, which proves it. (No custom
+markers here: that run has no conftest to register them.)
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import subprocess
+import sys
+import textwrap
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from xface_core.frames import (
+    DockStart,
+    PlanarPose,
+    mated_pose,
+    planar_yaw,
+    relative_pose_to_start,
+    yaw_to_quaternion,
+)
+from xface_core.outcome import Outcome
+from xface_core.predict import predict
+from xface_core.result import Counters, Margins, Prediction
+from xface_ros.config import SPECS, NodeConfig, config_from_values
+from xface_ros.decision import (
+    INPUT_ERRORS,
+    InputRejected,
+    PoseInput,
+    Predicted,
+    PredictorStats,
+    Rejected,
+    StatsCounts,
+    StatsWindow,
+    check_pose,
+    combined_margin,
+    decide,
+    evaluate,
+    evaluate_query,
+    evaluate_streamed,
+    required_margin_m,
+)
+
+NOW_NS = 1_700_000_000_000_000_000
+WIDTH = 0.05  # the default width_m
+
+
+@pytest.fixture(scope="module")
+def config() -> NodeConfig:
+    return config_from_values({spec.name: spec.default for spec in SPECS})
+
+
+def pose(
+    x: float = 0.01,
+    y: float = 0.15,
+    yaw: float = math.pi - 0.2,
+    *,
+    frame: str = "xface_base",
+    stamp_ns: int = NOW_NS,
+    quaternion: tuple[float, float, float, float] | None = None,
+) -> PoseInput:
+    q = yaw_to_quaternion(yaw) if quaternion is None else quaternion
+    return PoseInput(frame_id=frame, stamp_ns=stamp_ns, position=(x, y, 0.0), orientation=q)
+
+
+def at_start(x0_widths: float, theta0: float, *, stamp_ns: int = NOW_NS) -> PoseInput:
+    """The pose of a simulator start (x0 in widths, theta0 in rad) 3 widths up."""
+    return pose(x0_widths * WIDTH, 3.0 * WIDTH, theta0 + math.pi, stamp_ns=stamp_ns)
+
+
+# --- input checks ---------------------------------------------------------------------------
+
+
+def test_good_pose_converts_like_the_frames_module(config: NodeConfig) -> None:
+    p = pose()
+    start = check_pose(p, config, now_ns=NOW_NS + 1000)
+    expected = relative_pose_to_start(PlanarPose(0.01, 0.15, planar_yaw(*p.orientation)))
+    assert start == expected
+    assert start.theta0 == pytest.approx(-0.2)
+
+
+def bad_inputs() -> list[tuple[str, dict[str, Any]]]:
+    s = math.sin(0.2)
+    return [
+        ("wrong_frame", {"frame": "map"}),
+        ("wrong_frame", {"frame": ""}),
+        ("non_finite", {"x": math.nan}),
+        ("non_finite", {"y": math.inf}),
+        ("non_finite", {"quaternion": (0.0, 0.0, math.nan, 1.0)}),
+        ("stale_stamp", {"stamp_ns": NOW_NS - 2_000_000_000}),
+        ("stale_stamp", {"stamp_ns": 0}),
+        ("future_stamp", {"stamp_ns": NOW_NS + 2_000_000_000}),
+        ("unnormalised_quaternion", {"quaternion": (0.0, 0.0, 0.0, 0.0)}),
+        ("unnormalised_quaternion", {"quaternion": (0.0, 0.0, 1.0, 1.0)}),
+        ("non_planar", {"quaternion": (s, 0.0, 0.0, math.cos(0.2))}),  # roll 0.4 rad
+        ("absurd_distance", {"x": 60.0}),  # 1200 widths of 5 cm
+        ("absurd_distance", {"y": -51.0}),
+    ]
+
+
+@pytest.mark.parametrize(("code", "kwargs"), bad_inputs())
+def test_each_bad_input_is_rejected_with_its_code(
+    config: NodeConfig, code: str, kwargs: dict[str, Any]
+) -> None:
+    assert code in INPUT_ERRORS
+    with pytest.raises(InputRejected) as info:
+        check_pose(pose(**kwargs), config, now_ns=NOW_NS)
+    assert info.value.code == code
+    verdict = evaluate_streamed(pose(**kwargs), config, receive_ns=NOW_NS, path=False)
+    assert isinstance(verdict, Rejected)
+    assert verdict.code == code
+    assert not verdict.accepted
+
+
+def test_checks_run_in_the_documented_order(config: NodeConfig) -> None:
+    # Wrong frame before non-finite before stale before the quaternion.
+    everything_wrong = pose(math.nan, frame="map", stamp_ns=0, quaternion=(0.0, 0.0, 0.0, 0.0))
+    with pytest.raises(InputRejected, match="wrong_frame"):
+        check_pose(everything_wrong, config, now_ns=NOW_NS)
+    with pytest.raises(InputRejected, match="non_finite"):
+        check_pose(replace(everything_wrong, frame_id="xface_base"), config, now_ns=NOW_NS)
+
+
+def test_no_clock_skips_the_stamp_check(config: NodeConfig) -> None:
+    assert check_pose(pose(stamp_ns=0), config, now_ns=None).x0 == 0.01
+
+
+def test_zero_timeout_disables_the_stamp_check(config: NodeConfig) -> None:
+    no_timeout = replace(config, input_timeout_s=0.0)
+    assert check_pose(pose(stamp_ns=0), no_timeout, now_ns=NOW_NS).x0 == 0.01
+
+
+# --- acceptance -----------------------------------------------------------------------------
+
+
+def hand_prediction(outcome: Outcome, margins: Margins | None, config: NodeConfig) -> Prediction:
+    """A Prediction built by hand: only the fields the decision reads matter here."""
+    return Prediction(
+        design=config.design, x0=0.0, theta0=0.0, y_start=0.2, outcome=outcome, reason="r",
+        phi_b=0.0, phi_m=0.0, pivot_m=(0.0, 0.1), counters=Counters(1, 1, 1), margins=margins,
+    )  # fmt: skip
+
+
+def test_combined_margin_is_the_smaller_of_lateral_and_width_times_angle() -> None:
+    margins = Margins(lateral_minus=0.02, lateral_plus=0.03, angle_minus=0.5, angle_plus=0.1)
+    assert combined_margin(margins, 0.05) == pytest.approx(0.005)  # 0.1 rad x 5 cm
+    assert combined_margin(margins, 1.0) == pytest.approx(0.02)
+
+
+def test_decision_accepts_a_seat_with_enough_margin(config: NodeConfig) -> None:
+    seated = hand_prediction(Outcome.SEATED, Margins(0.02, 0.03, 0.5, 0.1), config)
+    assert decide(seated, required_margin_m=0.0).accepted
+    assert decide(seated, required_margin_m=0.004).accepted
+    short = decide(seated, required_margin_m=0.006)
+    assert not short.accepted
+    assert "margin" in short.why
+
+
+def test_decision_rejects_every_other_outcome_whatever_the_margin(config: NodeConfig) -> None:
+    for outcome in Outcome:
+        if outcome is not Outcome.SEATED:
+            p = hand_prediction(outcome, Margins(1.0, 1.0, 1.0, 1.0), config)
+            assert not decide(p, required_margin_m=0.0).accepted
+
+
+def test_decision_without_margins_cannot_meet_a_required_margin(config: NodeConfig) -> None:
+    seated = hand_prediction(Outcome.SEATED, None, config)
+    assert decide(seated, required_margin_m=0.0).accepted
+    assert not decide(seated, required_margin_m=0.001).accepted
+
+
+def test_query_tolerance_replaces_min_margin_only_when_positive(config: NodeConfig) -> None:
+    strict = replace(config, min_margin=0.003)
+    assert required_margin_m(0.002, strict) == 0.002
+    assert required_margin_m(0.0, strict) == 0.003
+    assert required_margin_m(math.nan, strict) == 0.003
+    assert required_margin_m(-1.0, config) == 0.0
+
+
+# --- verdicts -------------------------------------------------------------------------------
+
+
+def test_streamed_verdict_equals_the_core_and_carries_the_seat(config: NodeConfig) -> None:
+    verdict = evaluate_streamed(at_start(0.3, 0.2), config, receive_ns=NOW_NS, path=True)
+    assert isinstance(verdict, Predicted)
+    start = verdict.start
+    expected = predict(config.design, start.x0, start.theta0, y_start=start.y_start, margins=True)
+    assert verdict.prediction.outcome is expected.outcome is Outcome.SEATED
+    assert verdict.prediction.phi_m == expected.phi_m
+    assert verdict.prediction.margins == expected.margins
+    assert verdict.accepted
+    assert verdict.stamp_ns == NOW_NS
+    assert verdict.compute_s > 0.0
+    assert verdict.seated_pose is not None
+    seat = mated_pose(config.design, 0.3 * WIDTH)
+    assert verdict.seated_pose.x == pytest.approx(seat.x, abs=1e-9)
+    assert verdict.seated_pose.y == pytest.approx(seat.y, abs=1e-6)
+
+
+def test_streamed_verdict_follows_the_config(config: NodeConfig) -> None:
+    no_margins = replace(config, compute_margins=False)
+    verdict = evaluate_streamed(at_start(0.3, 0.2), no_margins, receive_ns=NOW_NS, path=False)
+    assert isinstance(verdict, Predicted)
+    assert verdict.prediction.margins is None
+    assert verdict.prediction.path is None
+    required = replace(no_margins, min_margin=1.0)  # 1 m: no seat has that
+    verdict = evaluate_streamed(at_start(0.3, 0.2), required, receive_ns=NOW_NS, path=False)
+    assert isinstance(verdict, Predicted)
+    assert verdict.prediction.seated
+    assert not verdict.accepted
+    assert verdict.seated_pose is not None  # it still seats: the seat is published
+
+
+def test_a_pose_that_does_not_seat_has_no_seated_pose(config: NodeConfig) -> None:
+    verdict = evaluate_streamed(at_start(0.9, 0.8), config, receive_ns=NOW_NS, path=False)
+    assert isinstance(verdict, Predicted)
+    assert not verdict.prediction.seated
+    assert not verdict.accepted
+    assert verdict.seated_pose is None
+
+
+def test_interpenetrating_start_is_rejected_as_invalid_input(config: NodeConfig) -> None:
+    verdict = evaluate_streamed(pose(0.0, 0.0, math.pi), config, receive_ns=NOW_NS, path=False)
+    assert isinstance(verdict, Rejected)
+    assert verdict.code == "invalid_input"
+
+
+def test_a_failing_simulator_gives_an_internal_error(
+    config: NodeConfig, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    def broken(*args: Any, **kwargs: Any) -> Prediction:
+        raise RuntimeError("boom")
+
+    monkeypatch.setattr("xface_ros.decision.predict", broken)
+    verdict = evaluate(
+        at_start(0.0, 0.0), config, now_ns=None, required_margin_m=0.0, path=False, margins=False
+    )
+    assert isinstance(verdict, Rejected)
+    assert verdict.code == "internal_error"
+    assert "boom" in verdict.detail
+
+
+def test_query_with_an_empty_frame_predicts_the_latest_pose_and_checks_its_age(
+    config: NodeConfig,
+) -> None:
+    empty = pose(frame="", stamp_ns=0)
+    verdict = evaluate_query(empty, None, config, tolerance_m=0.0, now_ns=NOW_NS)
+    assert isinstance(verdict, Rejected)
+    assert verdict.code == "no_pose"
+    latest = at_start(-0.4, -0.3)
+    verdict = evaluate_query(empty, latest, config, tolerance_m=0.0, now_ns=NOW_NS)
+    assert isinstance(verdict, Predicted)
+    assert verdict.stamp_ns == latest.stamp_ns
+    assert verdict.start == DockStart(-0.4 * WIDTH, pytest.approx(-0.3), 3.0 * WIDTH)
+    late = evaluate_query(empty, latest, config, tolerance_m=0.0, now_ns=NOW_NS + 10**10)
+    assert isinstance(late, Rejected)
+    assert late.code == "stale_stamp"
+
+
+def test_query_with_an_explicit_start_ignores_its_stamp_and_always_has_a_path(
+    config: NodeConfig,
+) -> None:
+    old = at_start(0.3, 0.2, stamp_ns=0)
+    no_margins = replace(config, compute_margins=False)
+    verdict = evaluate_query(old, None, no_margins, tolerance_m=0.0, now_ns=NOW_NS)
+    assert isinstance(verdict, Predicted)
+    assert verdict.accepted
+    assert verdict.prediction.path is not None
+    assert verdict.prediction.margins is None  # no margin required, none configured
+    assert verdict.decision.margin_m is None
+
+
+def test_query_tolerance_is_the_required_combined_margin(config: NodeConfig) -> None:
+    start = at_start(0.3, 0.2, stamp_ns=0)
+    verdict = evaluate_query(start, None, config, tolerance_m=0.0, now_ns=NOW_NS)
+    assert isinstance(verdict, Predicted)
+    margin = verdict.decision.margin_m
+    assert margin is not None
+    assert 0.0 < margin < math.inf
+    half = evaluate_query(start, None, config, tolerance_m=0.5 * margin, now_ns=NOW_NS)
+    double = evaluate_query(start, None, config, tolerance_m=2.0 * margin, now_ns=NOW_NS)
+    assert half.accepted
+    assert not double.accepted
+
+
+# --- stats ----------------------------------------------------------------------------------
+
+
+def test_stats_count_predictions_errors_and_windows(config: NodeConfig) -> None:
+    stats = PredictorStats(start_ns=0)
+    assert stats.warming_up
+    stats.set_warming_up(False)
+    stats.count_received(stamp_ns=NOW_NS)
+    stats.count_received(stamp_ns=NOW_NS + 1)
+    seated = evaluate_streamed(at_start(0.0, 0.0), config, receive_ns=NOW_NS, path=False)
+    assert isinstance(seated, Predicted)
+    stats.count_verdict(seated, latency_ms=2.0)
+    stats.count_verdict(Rejected(NOW_NS + 1, "non_planar", "tilted"), latency_ms=1.0)
+    stats.count_service_call()
+    stats.count_recording_error()
+    stats.set_dds_lost_total(3)
+    snap = stats.take_snapshot(2_000_000_000, received_total=2, dropped_total=0)
+    assert snap.window == StatsWindow(
+        received=2, predicted=1, latency_ms=[2.0], compute_ms=[seated.compute_s * 1e3]
+    )
+    assert snap.window_s == pytest.approx(2.0)
+    assert snap.pose_age_s == pytest.approx((2_000_000_000 - NOW_NS - 1) * 1e-9)
+    # The last verdict was the rejection: it sets the last outcome and error; the latency
+    # is that of the last prediction.
+    assert snap.counts == StatsCounts(
+        warming_up=False, predicted_total=1, input_errors_total=1, dds_lost_total=3,
+        service_calls_total=1, recording_errors_total=1, last_outcome="INVALID_INPUT",
+        last_accepted=None, last_input_error="non_planar", last_latency_ms=2.0,
+        last_stamp_ns=NOW_NS + 1,
+    )  # fmt: skip
+    # A new window starts empty; the totals stay.
+    later = stats.take_snapshot(3_000_000_000, received_total=2, dropped_total=0)
+    assert later.window.received == 0
+    assert later.counts.predicted_total == 1
+    assert later.window_s == pytest.approx(1.0)
+
+
+def test_stats_before_any_pose() -> None:
+    snap = PredictorStats(start_ns=0).take_snapshot(10, received_total=0, dropped_total=0)
+    assert math.isnan(snap.pose_age_s)
+    assert snap.counts.last_outcome == "none"
+    assert snap.counts.warming_up
+
+
+# --- the proof that none of this needs ROS --------------------------------------------------
+
+#: Refuses every ROS 2 module (the client library, its C layers, generators, message
+#: packages) in the interpreter it runs in, then runs pytest with the given arguments.
+_RUN_PYTEST_WITHOUT_ROS = textwrap.dedent(
+    """
+    import sys
+
+    ALREADY_LOADED = set(sys.modules)  # by .pth files at startup (the ROS wheels' bootstrapper)
+
+    def is_ros(name):
+        top = name.partition(".")[0]
+        return top in ("rclpy", "rpyutils", "ament_index_python") or top.startswith(
+            ("rcl", "rmw", "rosidl", "ros_")
+        ) or top.endswith(("_msgs", "_srvs", "_interfaces"))
+
+    class RosBlocker:
+        def find_spec(self, name, path=None, target=None):
+            if is_ros(name):
+                raise ModuleNotFoundError(f"No module named {name!r} (ROS blocked)", name=name)
+            return None
+
+    sys.meta_path.insert(0, RosBlocker())
+    try:
+        import rclpy
+    except ModuleNotFoundError:
+        pass
+    else:
+        sys.exit("the blocker let rclpy through")
+    import pytest
+
+    code = pytest.main(sys.argv[1:])
+    leaked = sorted(m for m in set(sys.modules) - ALREADY_LOADED if is_ros(m))
+    sys.exit(f"ROS modules imported: {leaked}" if leaked else int(code))
+    """
+)
+
+
+def test_every_test_here_and_of_the_worker_runs_without_ros() -> None:
+    here = Path(__file__).resolve()
+    args = [
+        here.name,
+        "test_worker.py",
+        "--noconftest",
+        "-p",
+        "no:cacheprovider",
+        "-q",
+        "-k",
+        "not without_ros",
+    ]
+    run = subprocess.run(
+        [sys.executable, "-c", _RUN_PYTEST_WITHOUT_ROS, *args],
+        cwd=here.parent, capture_output=True, text=True, timeout=600, check=False,
+    )  # fmt: skip
+    out = run.stdout + run.stderr
+    assert run.returncode == 0, out
+    passed = re.search(r"(\d+) passed", out)
+    assert passed is not None, out
+    assert int(passed[1]) >= 40, out
+    assert "failed" not in out, out

@@ -1,0 +1,269 @@
+"""The prediction worker without ROS: warm-up on its thread, newest pose, publish, count, record.
+
+The node's side (clock, logger, publishing, subscriber counts) is faked with plain callables;
+nothing here imports rclpy (tests/ros/test_decision.py runs this module with ROS blocked).
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+from collections.abc import Iterator
+from dataclasses import replace
+from typing import Any
+
+import pytest
+
+from xface_core.frames import yaw_to_quaternion
+from xface_core.result import Prediction
+from xface_ros.config import SPECS, NodeConfig, config_from_values
+from xface_ros.decision import PoseInput, Predicted, Rejected, Verdict
+from xface_ros.latest import Received
+from xface_ros.worker import PredictionWorker
+
+NOW_NS = 1_700_000_000_000_000_000
+LATER_NS = NOW_NS + 3_000_000  # the clock 3 ms after the stamp
+WIDTH = 0.05
+WAIT_S = 60.0  # generous: the first simulation in a process loads the compiled kernels
+
+
+class FakeLogger:
+    """Collects log lines per level."""
+
+    def __init__(self) -> None:
+        self.lines: dict[str, list[str]] = {"info": [], "warning": [], "error": []}
+
+    def info(self, message: str, **kwargs: Any) -> None:
+        self.lines["info"].append(message)
+
+    def warning(self, message: str, **kwargs: Any) -> None:
+        self.lines["warning"].append(message)
+
+    def error(self, message: str, **kwargs: Any) -> None:
+        self.lines["error"].append(message)
+
+
+class Published:
+    """The node's publish callback: keeps the verdicts, can be told to fail."""
+
+    def __init__(self, *, fail_first: int = 0) -> None:
+        self.verdicts: list[Verdict] = []
+        self.configs: list[NodeConfig] = []
+        self.fail_first = fail_first
+        self.cond = threading.Condition()
+
+    def __call__(self, verdict: Verdict, config: NodeConfig) -> None:
+        with self.cond:
+            if self.fail_first > 0:
+                self.fail_first -= 1
+                raise RuntimeError("publisher broke")
+            self.verdicts.append(verdict)
+            self.configs.append(config)
+            self.cond.notify_all()
+
+    def wait_for(self, n: int) -> list[Verdict]:
+        with self.cond:
+            assert self.cond.wait_for(lambda: len(self.verdicts) >= n, timeout=WAIT_S)
+            return list(self.verdicts)
+
+
+class FakeRecorder:
+    def __init__(self, *, fail: bool = False) -> None:
+        self.recorded: list[tuple[Prediction, int]] = []
+        self.fail = fail
+        self.path = "fake.rrd"
+
+    def record(self, prediction: Prediction, *, stamp_ns: int) -> None:
+        if self.fail:
+            raise OSError("disk full")
+        self.recorded.append((prediction, stamp_ns))
+
+
+@pytest.fixture(scope="module")
+def config() -> NodeConfig:
+    defaults = config_from_values({spec.name: spec.default for spec in SPECS})
+    return replace(defaults, compute_margins=False)  # fast: one simulation per pose
+
+
+def at_start(x0_widths: float, theta0: float, *, stamp_ns: int = NOW_NS) -> PoseInput:
+    q = yaw_to_quaternion(theta0 + math.pi)
+    return PoseInput("xface_base", stamp_ns, (x0_widths * WIDTH, 3.0 * WIDTH, 0.0), q)
+
+
+def make_worker(config: NodeConfig, publish: Published, **kwargs: Any) -> PredictionWorker:
+    options: dict[str, Any] = {
+        "config": lambda: config,
+        "now_ns": lambda: LATER_NS,
+        "wants_path": lambda: False,
+        "publish": publish,
+        "logger": FakeLogger(),
+        "warm_up": lambda _config: None,
+    } | kwargs
+    return PredictionWorker(**options)
+
+
+@pytest.fixture
+def workers() -> Iterator[list[PredictionWorker]]:
+    """Every worker a test appends here is stopped at teardown."""
+    started: list[PredictionWorker] = []
+    yield started
+    for worker in started:
+        worker.stop(timeout_s=WAIT_S)
+
+
+def test_the_warm_up_runs_on_the_worker_thread_and_poses_wait_for_it(
+    config: NodeConfig, workers: list[PredictionWorker]
+) -> None:
+    entered, release = threading.Event(), threading.Event()
+    warm_up_thread: list[str] = []
+
+    def slow_warm_up(_config: NodeConfig) -> None:
+        warm_up_thread.append(threading.current_thread().name)
+        entered.set()
+        assert release.wait(timeout=WAIT_S)
+
+    publish = Published()
+    worker = make_worker(config, publish, warm_up=slow_warm_up)
+    workers.append(worker)
+    worker.start()  # returns at once: the warm-up is the thread's business
+    assert worker.warming_up
+    worker.submit(at_start(0.0, 0.0), receive_ns=NOW_NS)
+    assert entered.wait(timeout=WAIT_S)
+    assert publish.verdicts == []  # the one thread that predicts is still warming up
+    assert worker.take_stats(LATER_NS).counts.warming_up
+    release.set()
+    (verdict,) = publish.wait_for(1)
+    assert isinstance(verdict, Predicted)
+    assert not worker.warming_up
+    assert warm_up_thread == ["xface_predictor"]
+
+
+def test_a_failed_warm_up_is_logged_and_ends_the_warm_up(
+    config: NodeConfig, workers: list[PredictionWorker]
+) -> None:
+    def broken(_config: NodeConfig) -> None:
+        raise RuntimeError("no kernels")
+
+    publish, logger = Published(), FakeLogger()
+    worker = make_worker(config, publish, warm_up=broken, logger=logger)
+    workers.append(worker)
+    worker.start()
+    worker.submit(at_start(0.0, 0.0), receive_ns=NOW_NS)
+    publish.wait_for(1)
+    assert not worker.warming_up
+    assert any("warm-up prediction failed" in line for line in logger.lines["warning"])
+
+
+def test_a_prediction_is_published_with_its_config_and_counted(config: NodeConfig) -> None:
+    publish = Published()
+    worker = make_worker(config, publish)
+    verdict = worker.process(Received(at_start(0.3, 0.2), receive_ns=NOW_NS))
+    assert isinstance(verdict, Predicted)
+    assert verdict.accepted
+    assert verdict.prediction.path is None  # nobody wants the path
+    assert publish.verdicts == [verdict]
+    assert publish.configs == [config]
+    snap = worker.take_stats(LATER_NS)
+    assert snap.counts.predicted_total == 1
+    assert snap.counts.last_outcome == "SEATED"
+    assert snap.counts.last_accepted is True
+    assert snap.counts.last_latency_ms == pytest.approx(3.0)
+
+
+def test_paths_are_computed_only_when_wanted(config: NodeConfig) -> None:
+    wanted = make_worker(config, Published(), wants_path=lambda: True)
+    verdict = wanted.process(Received(at_start(0.3, 0.2), receive_ns=NOW_NS))
+    assert isinstance(verdict, Predicted)
+    assert verdict.prediction.path is not None
+
+
+def test_a_rejected_pose_is_published_counted_and_logged(config: NodeConfig) -> None:
+    publish, logger = Published(), FakeLogger()
+    worker = make_worker(config, publish, logger=logger)
+    tilted = replace(at_start(0.0, 0.0), orientation=(0.0, math.sin(0.15), 0.0, math.cos(0.15)))
+    verdict = worker.process(Received(tilted, receive_ns=NOW_NS))
+    assert isinstance(verdict, Rejected)
+    assert verdict.code == "non_planar"
+    assert publish.verdicts == [verdict]
+    snap = worker.take_stats(LATER_NS)
+    assert snap.counts.input_errors_total == 1
+    assert snap.counts.last_input_error == "non_planar"
+    assert logger.lines["error"] == [f"pose rejected: non_planar: {verdict.detail}"]
+
+
+def test_the_stamp_is_judged_at_arrival_not_when_the_worker_gets_to_it(
+    config: NodeConfig,
+) -> None:
+    worker = make_worker(config, Published(), now_ns=lambda: NOW_NS + 10**10)  # 10 s later
+    verdict = worker.process(Received(at_start(0.0, 0.0), receive_ns=NOW_NS))
+    assert isinstance(verdict, Predicted)
+
+
+def test_newest_pose_wins_and_older_ones_count_as_dropped(
+    config: NodeConfig, workers: list[PredictionWorker]
+) -> None:
+    publish = Published()
+    worker = make_worker(config, publish)
+    workers.append(worker)
+    for i in range(3):  # before the thread runs: all wait in the one slot
+        worker.submit(at_start(0.0, 0.0, stamp_ns=NOW_NS + i), receive_ns=NOW_NS + i)
+    worker.start()
+    (verdict,) = publish.wait_for(1)
+    assert verdict.stamp_ns == NOW_NS + 2
+    latest = worker.latest_pose
+    assert latest is not None
+    assert latest.stamp_ns == NOW_NS + 2
+    snap = worker.take_stats(LATER_NS)
+    assert (snap.received_total, snap.dropped_total, snap.window.received) == (3, 2, 3)
+
+
+def test_a_failing_publish_becomes_an_internal_error_and_the_worker_goes_on(
+    config: NodeConfig, workers: list[PredictionWorker]
+) -> None:
+    publish = Published(fail_first=1)
+    worker = make_worker(config, publish)
+    workers.append(worker)
+    worker.start()
+    worker.submit(at_start(0.0, 0.0), receive_ns=NOW_NS)
+    (error,) = publish.wait_for(1)
+    assert isinstance(error, Rejected)
+    assert error.code == "internal_error"
+    assert "publisher broke" in error.detail
+    worker.submit(at_start(0.0, 0.0, stamp_ns=NOW_NS + 1), receive_ns=NOW_NS + 1)
+    assert isinstance(publish.wait_for(2)[1], Predicted)
+
+
+def test_a_failing_publish_during_shutdown_ends_the_worker_quietly(
+    config: NodeConfig, workers: list[PredictionWorker]
+) -> None:
+    publish = Published(fail_first=100)
+    worker = make_worker(config, publish, shutting_down=lambda: True)
+    workers.append(worker)
+    worker.submit(at_start(0.0, 0.0), receive_ns=NOW_NS)
+    worker.start()
+    worker._thread.join(timeout=WAIT_S)
+    assert not worker._thread.is_alive()
+    assert publish.verdicts == []
+
+
+def test_predictions_are_recorded_and_recording_failures_counted(config: NodeConfig) -> None:
+    recorder = FakeRecorder()
+    worker = make_worker(config, Published(), recorder=recorder)
+    verdict = worker.process(Received(at_start(0.3, 0.2), receive_ns=NOW_NS))
+    assert isinstance(verdict, Predicted)
+    assert verdict.prediction.path is not None  # a recording wants the path
+    assert recorder.recorded == [(verdict.prediction, NOW_NS)]
+
+    logger = FakeLogger()
+    failing = make_worker(config, Published(), recorder=FakeRecorder(fail=True), logger=logger)
+    failing.process(Received(at_start(0.3, 0.2), receive_ns=NOW_NS))
+    assert failing.take_stats(LATER_NS).counts.recording_errors_total == 1
+    assert logger.lines["error"] == ["recording failed: OSError('disk full')"]
+
+
+def test_stop_is_idempotent(config: NodeConfig) -> None:
+    worker = make_worker(config, Published())
+    worker.start()
+    worker.stop(timeout_s=WAIT_S)
+    worker.stop(timeout_s=WAIT_S)
+    assert not worker._thread.is_alive()

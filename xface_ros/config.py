@@ -1,0 +1,336 @@
+"""The node's configuration without ROS: parameter specs, validation, the immutable config.
+
+Every parameter is described once here (:data:`SPECS`: name, default, description, range);
+:mod:`xface_ros.params` turns the specs into ROS parameter descriptors. What a range cannot
+express (the face letter, the frame name, a design the core cannot build, physics the core
+does not simulate) is checked by :func:`config_from_values`, which the node calls once after
+declaring and then from its ``on_set_parameters`` callback. Imports no rclpy, so the decision
+module and its tests can use the config where ROS is not installed.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import time
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from xface_core.errors import XfaceError
+from xface_core.frames import DEFAULT_MAX_DISTANCE_WIDTHS, DEFAULT_MAX_TILT_RAD
+from xface_core.geometry import FaceDesign, make_face
+from xface_core.physics import Physics
+
+__all__ = [
+    "DESIGN_PARAMETERS",
+    "SPECS",
+    "SPEC_BY_NAME",
+    "ConfigError",
+    "NodeConfig",
+    "ParamSpec",
+    "ParamValue",
+    "config_from_values",
+    "default_record_path",
+]
+
+ParamValue = bool | int | float | str
+
+
+class ConfigError(ValueError):
+    """A set of parameter values the node cannot run with; the message says why."""
+
+
+@dataclass(frozen=True)
+class ParamSpec:
+    """One parameter: name, default (which also fixes its type), description and limits."""
+
+    name: str
+    default: ParamValue
+    description: str
+    float_range: tuple[float, float] | None = None
+    int_range: tuple[int, int] | None = None
+    read_only: bool = False
+    constraints: str = ""
+
+
+SPECS: tuple[ParamSpec, ...] = (
+    ParamSpec(
+        "face",
+        "X",
+        "Connector face: X (two-layer X-Face), V (gendered V-Face) or S (S-Face).",
+        constraints="one of X, V, S (case-insensitive)",
+    ),
+    ParamSpec(
+        "width_m",
+        0.05,
+        "Face width D in metres; poses are in metres.",
+        float_range=(1.0e-4, 10.0),
+    ),
+    ParamSpec(
+        "h_over_d",
+        0.25,
+        "Profile height over width, H/D (dimensionless).",
+        float_range=(0.01, 100.0),
+    ),
+    ParamSpec(
+        "r_p",
+        1.0,
+        "Distance from each pivot to its profile's base line, in widths D.",
+        float_range=(0.0, 100.0),
+    ),
+    ParamSpec(
+        "damping_ratio",
+        1.0,
+        "Rotational damping of the base over that of the moving part, c_B / c_M; "
+        "large values approach a base that does not turn.",
+        float_range=(1.0e-3, 1.0e3),
+    ),
+    ParamSpec(
+        "friction",
+        0.0,
+        "Coulomb friction coefficient at every contact between the faces (0 is the "
+        "paper's frictionless model).",
+        float_range=(0.0, 2.0),
+    ),
+    ParamSpec(
+        "base_frame",
+        "xface_base",
+        "Frame id of the base part's pivot frame (+y out of the base face); input poses must "
+        "carry it and every output is expressed in it.",
+        constraints="non-empty, no whitespace, no leading '/'",
+    ),
+    ParamSpec(
+        "input_timeout_s",
+        0.5,
+        "Streamed poses whose stamp is older than this (node clock) are reported as stale, "
+        "not predicted; 0 disables the check.",
+        float_range=(0.0, 3600.0),
+    ),
+    ParamSpec(
+        "min_margin",
+        0.0,
+        "Margin in metres a seating pose needs to count as accepted: the smaller of the "
+        "lateral margin and D times the angular margin (rad). 0 accepts every seat.",
+        float_range=(0.0, 10.0),
+    ),
+    ParamSpec(
+        "compute_margins",
+        True,
+        "Search the outcome margins for every streamed pose (costs extra simulations; "
+        "always on when min_margin > 0).",
+    ),
+    ParamSpec(
+        "max_tilt_rad",
+        DEFAULT_MAX_TILT_RAD,
+        "Largest roll/pitch (tilt of the moving frame's z axis, rad) accepted as planar.",
+        float_range=(0.0, 0.5),
+    ),
+    ParamSpec(
+        "max_distance_widths",
+        DEFAULT_MAX_DISTANCE_WIDTHS,
+        "Poses with |x| or |y| beyond this many face widths are rejected as absurd.",
+        float_range=(1.0, 1.0e5),
+    ),
+    ParamSpec(
+        "max_path_poses",
+        1000,
+        "Most poses in a published path; longer simulated paths are subsampled evenly "
+        "(first and last sample kept).",
+        int_range=(2, 100000),
+    ),
+    ParamSpec(
+        "diagnostics_period_s",
+        1.0,
+        "Period of the /diagnostics message (s).",
+        float_range=(0.05, 60.0),
+        read_only=True,
+    ),
+    ParamSpec(
+        "record",
+        False,
+        "Write a rerun recording (.rrd) of every streamed prediction; finished on shutdown.",
+        read_only=True,
+    ),
+    ParamSpec(
+        "record_path",
+        "",
+        "Where the .rrd recording goes; empty = xface-<YYYYmmdd-HHMMSS>.rrd in the node's "
+        "working directory.",
+        read_only=True,
+    ),
+    ParamSpec(
+        "record_url",
+        "",
+        "Also stream the recording to a live rerun viewer at this gRPC URL "
+        "(e.g. rerun+http://127.0.0.1:9876/proxy); empty = none.",
+        read_only=True,
+    ),
+)
+
+SPEC_BY_NAME: dict[str, ParamSpec] = {spec.name: spec for spec in SPECS}
+
+#: Parameters that change the simulated connector (the design is rebuilt from them).
+DESIGN_PARAMETERS = frozenset({"face", "width_m", "h_over_d", "r_p", "damping_ratio", "friction"})
+
+
+@dataclass(frozen=True)
+class NodeConfig:
+    """A validated, immutable snapshot of the parameters and the design built from them.
+
+    Lengths in metres, angles in radians, times in seconds. The worker reads one snapshot
+    per prediction, so a parameter change never mixes old and new values within a
+    prediction.
+    """
+
+    face: str
+    width_m: float
+    h_over_d: float
+    r_p: float
+    base_frame: str
+    input_timeout_s: float
+    min_margin: float
+    compute_margins: bool
+    max_tilt_rad: float
+    max_distance_widths: float
+    max_path_poses: int
+    diagnostics_period_s: float
+    record: bool
+    record_path: str
+    record_url: str
+    design: FaceDesign = field(repr=False)
+    physics: Physics
+    """Damping ratio and friction, validated by the core's own value type."""
+
+    @property
+    def damping_ratio(self) -> float:
+        """c_B / c_M, as in :attr:`physics`."""
+        return self.physics.damping_ratio
+
+    @property
+    def friction(self) -> float:
+        """The Coulomb friction coefficient, as in :attr:`physics`."""
+        return self.physics.friction
+
+    @property
+    def need_margins(self) -> bool:
+        """Whether streamed predictions search margins."""
+        return self.compute_margins or self.min_margin > 0.0
+
+    def values(self) -> dict[str, ParamValue]:
+        """The parameter values (without the design)."""
+        return {spec.name: getattr(self, spec.name) for spec in SPECS}
+
+
+def default_record_path(now_s: float | None = None) -> str:
+    """``xface-<YYYYmmdd-HHMMSS>.rrd`` in the working directory (local time; ``now_s`` in s
+    since the epoch, None = now)."""
+    stamp = time.strftime("%Y%m%d-%H%M%S", time.localtime(now_s))
+    return str(Path.cwd() / f"xface-{stamp}.rrd")
+
+
+def _check_type(name: str, value: object) -> None:
+    default = SPEC_BY_NAME[name].default
+    # bool is an int in Python: compare the exact types; ints are fine for doubles.
+    expected: tuple[type, ...] = (float, int) if type(default) is float else (type(default),)
+    if type(value) not in expected:
+        raise ConfigError(
+            f"{name} must be a {type(default).__name__}, got {type(value).__name__} {value!r}"
+        )
+
+
+def _check_types_and_ranges(values: Mapping[str, Any]) -> None:
+    """Every parameter present, of its type and inside its declared range."""
+    missing = [spec.name for spec in SPECS if spec.name not in values]
+    if missing:
+        raise ConfigError(f"missing parameters: {', '.join(missing)}")
+    for spec in SPECS:
+        value = values[spec.name]
+        _check_type(spec.name, value)
+        if spec.float_range is not None:
+            low, high = spec.float_range
+            if not (math.isfinite(value) and low <= value <= high):
+                raise ConfigError(f"{spec.name} = {value!r} is outside [{low:g}, {high:g}]")
+        if spec.int_range is not None:
+            low_i, high_i = spec.int_range
+            if not low_i <= value <= high_i:
+                raise ConfigError(f"{spec.name} = {value!r} is outside [{low_i}, {high_i}]")
+
+
+def _face_letter(value: Any) -> str:
+    face = str(value).strip().upper()
+    if face not in ("X", "V", "S"):
+        raise ConfigError(f"face must be one of X, V, S; got {value!r}")
+    return face
+
+
+def _base_frame(value: Any) -> str:
+    frame = str(value)
+    if not frame or frame.startswith("/") or any(c.isspace() for c in frame):
+        raise ConfigError(
+            f"base_frame must be non-empty, without whitespace or a leading '/'; got {frame!r}"
+        )
+    return frame
+
+
+def _design(face: str, values: Mapping[str, Any]) -> FaceDesign:
+    """The connector in metres, or the core's reason why it cannot exist."""
+    try:
+        return make_face(
+            face, float(values["h_over_d"]), float(values["r_p"]), width=float(values["width_m"])
+        )
+    except XfaceError as exc:
+        raise ConfigError(f"cannot build the {face}-Face: {exc}") from exc
+
+
+def _physics(values: Mapping[str, Any]) -> Physics:
+    """The core's physics value; its own message (naming the field) when it refuses."""
+    try:
+        return Physics(
+            damping_ratio=float(values["damping_ratio"]), friction=float(values["friction"])
+        )
+    except XfaceError as exc:
+        raise ConfigError(str(exc)) from exc
+
+
+def _record_path(value: Any) -> str:
+    path = str(value)
+    if path and os.path.isdir(path):
+        raise ConfigError(f"record_path {path!r} is a directory, not a file")
+    return path
+
+
+def config_from_values(values: Mapping[str, Any]) -> NodeConfig:
+    """Validate a full set of parameter values and build the design and the physics.
+
+    Raises
+    ------
+    ConfigError
+        With a message naming the parameter and the reason.
+    """
+    _check_types_and_ranges(values)
+    face = _face_letter(values["face"])
+    base_frame = _base_frame(values["base_frame"])
+    design = _design(face, values)
+    physics = _physics(values)
+    record_path = _record_path(values["record_path"])
+    return NodeConfig(
+        face=face,
+        width_m=float(values["width_m"]),
+        h_over_d=float(values["h_over_d"]),
+        r_p=float(values["r_p"]),
+        base_frame=base_frame,
+        input_timeout_s=float(values["input_timeout_s"]),
+        min_margin=float(values["min_margin"]),
+        compute_margins=bool(values["compute_margins"]),
+        max_tilt_rad=float(values["max_tilt_rad"]),
+        max_distance_widths=float(values["max_distance_widths"]),
+        max_path_poses=int(values["max_path_poses"]),
+        diagnostics_period_s=float(values["diagnostics_period_s"]),
+        record=bool(values["record"]),
+        record_path=record_path,
+        record_url=str(values["record_url"]),
+        design=design,
+        physics=physics,
+    )

@@ -1,0 +1,497 @@
+"""What the node decides, without ROS: input checks, which start to predict, the verdict, stats.
+
+Imports no rclpy and no message package (plain Python and :mod:`xface_core` only), so every
+rule here is tested where ROS is not installed (tests/ros/test_decision.py proves it in a
+subprocess that cannot import rclpy). The node converts a received message to a
+:class:`PoseInput` (plain values) and hands it over; what comes back is a :class:`Verdict`:
+
+* :class:`Rejected`: the pose is not predicted; ``code`` (a key of :data:`INPUT_ERRORS`)
+  and ``detail`` say why. The node publishes an ERROR status and nothing else.
+* :class:`Predicted`: the simulation ran; ``decision`` says whether it counts as accepted
+  (it seats with the required margin) and why, ``seated_pose`` is the seat or None.
+
+:class:`PredictorStats` counts what ``/diagnostics`` reports. Units: lengths in metres,
+angles in radians, stamps and clocks in nanoseconds, durations in seconds unless a name ends
+in ``_ms``.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+import time
+from dataclasses import dataclass, field, replace
+
+from xface_core.errors import XfaceError
+from xface_core.frames import (
+    AbsurdDistanceError,
+    DockStart,
+    NonPlanarOrientationError,
+    NonUnitQuaternionError,
+    PlanarPose,
+    check_distance,
+    moving_pose,
+    planar_yaw,
+    relative_pose_to_start,
+)
+from xface_core.outcome import Outcome
+from xface_core.predict import predict
+from xface_core.result import Margins, Prediction
+from xface_ros.config import NodeConfig
+
+__all__ = [
+    "INPUT_ERRORS",
+    "Decision",
+    "InputRejected",
+    "PoseInput",
+    "Predicted",
+    "PredictorStats",
+    "Rejected",
+    "StatsCounts",
+    "StatsSnapshot",
+    "StatsWindow",
+    "Verdict",
+    "check_pose",
+    "combined_margin",
+    "decide",
+    "evaluate",
+    "evaluate_query",
+    "evaluate_streamed",
+    "required_margin_m",
+    "simulate",
+]
+
+#: Input error codes (the ``input_error`` value of an ERROR status), with what they mean.
+INPUT_ERRORS: dict[str, str] = {
+    "non_finite": "a position or quaternion component is NaN or infinite",
+    "wrong_frame": "header.frame_id is not the base_frame parameter",
+    "stale_stamp": "the stamp is older than input_timeout_s",
+    "future_stamp": "the stamp lies more than input_timeout_s in the future",
+    "unnormalised_quaternion": "the quaternion's norm is not 1",
+    "non_planar": "the orientation rolls or pitches beyond max_tilt_rad",
+    "absurd_distance": "|x| or |y| is beyond max_distance_widths face widths",
+    "no_pose": "no pose has been received yet (service: empty start frame id)",
+    "invalid_input": "the simulator refused the start (e.g. the parts interpenetrate)",
+    "internal_error": "the simulator failed unexpectedly (a bug: the message has the details)",
+}
+
+
+class InputRejected(Exception):
+    """An input pose that is not predicted; ``code`` is a key of :data:`INPUT_ERRORS`."""
+
+    def __init__(self, code: str, detail: str) -> None:
+        super().__init__(f"{code}: {detail}")
+        self.code = code
+        self.detail = detail
+
+
+@dataclass(frozen=True)
+class PoseInput:
+    """A received ``geometry_msgs/PoseStamped`` as plain values.
+
+    ``position`` (x, y, z) in metres, ``orientation`` the quaternion (x, y, z, w),
+    ``stamp_ns`` the header stamp in nanoseconds, ``frame_id`` the header's frame.
+    """
+
+    frame_id: str
+    stamp_ns: int
+    position: tuple[float, float, float]
+    orientation: tuple[float, float, float, float]
+
+
+# --- input checks, in the documented order: frame, finiteness, stamp, quaternion, distance ---
+
+
+def _check_frame(pose: PoseInput, base_frame: str) -> None:
+    if pose.frame_id != base_frame:
+        raise InputRejected(
+            "wrong_frame", f"frame_id {pose.frame_id!r} is not the base frame {base_frame!r}"
+        )
+
+
+def _check_finite(pose: PoseInput) -> None:
+    if not all(math.isfinite(v) for v in (*pose.position, *pose.orientation)):
+        raise InputRejected(
+            "non_finite", f"position {pose.position}, quaternion {pose.orientation}"
+        )
+
+
+def _check_stamp(stamp_ns: int, now_ns: int, timeout_s: float) -> None:
+    """Stale or future stamps, judged against ``now_ns``; ``timeout_s`` 0 disables."""
+    if timeout_s <= 0.0:
+        return
+    age_s = (now_ns - stamp_ns) * 1e-9
+    if age_s > timeout_s:
+        raise InputRejected(
+            "stale_stamp", f"pose is {age_s:.3f} s old, input_timeout_s {timeout_s:g}"
+        )
+    if -age_s > timeout_s:
+        raise InputRejected("future_stamp", f"pose stamp is {-age_s:.3f} s ahead of the node clock")
+
+
+def _planar_pose(pose: PoseInput, config: NodeConfig) -> PlanarPose:
+    """x, y (m) and yaw (rad) of a finite pose; z is ignored (the model is planar)."""
+    x, y, _z = pose.position
+    try:
+        yaw = planar_yaw(*pose.orientation, max_tilt_rad=config.max_tilt_rad)
+        check_distance(x, y, width=config.width_m, max_widths=config.max_distance_widths)
+    except NonUnitQuaternionError as exc:
+        raise InputRejected("unnormalised_quaternion", str(exc)) from exc
+    except NonPlanarOrientationError as exc:
+        raise InputRejected("non_planar", str(exc)) from exc
+    except AbsurdDistanceError as exc:
+        raise InputRejected("absurd_distance", str(exc)) from exc
+    except XfaceError as exc:  # non-finite after all (cannot happen after _check_finite)
+        raise InputRejected("non_finite", str(exc)) from exc
+    return PlanarPose(float(x), float(y), yaw)
+
+
+def check_pose(pose: PoseInput, config: NodeConfig, *, now_ns: int | None) -> DockStart:
+    """Check an input pose and convert it to the simulator's start (x0, theta0, y_start).
+
+    ``now_ns`` is the node clock (ns) to judge the stamp by; None skips the stamp check
+    (planner queries about hypothetical poses).
+
+    Raises
+    ------
+    InputRejected
+        The first failed check, in the order frame, finiteness, stamp, quaternion, distance.
+    """
+    _check_frame(pose, config.base_frame)
+    _check_finite(pose)
+    if now_ns is not None:
+        _check_stamp(pose.stamp_ns, now_ns, config.input_timeout_s)
+    return relative_pose_to_start(_planar_pose(pose, config))
+
+
+# --- acceptance -----------------------------------------------------------------------------
+
+
+def combined_margin(margins: Margins, width: float) -> float:
+    """One margin in metres: the smaller of the lateral margin and D times the angle margin.
+
+    The paper's acceptance maps have axes x0 / D and theta0 (rad); measuring both in those
+    units and scaling by D (``width``, m) gives a length: the distance, along either axis of
+    the map, to the nearest pose with another outcome.
+    """
+    return min(margins.lateral, margins.angle * width)
+
+
+@dataclass(frozen=True)
+class Decision:
+    """Whether a prediction counts as accepted, and why."""
+
+    accepted: bool
+    margin_m: float | None
+    """Combined margin (m), None when margins were not computed."""
+    required_m: float
+    """The margin (m) asked for."""
+    why: str
+
+
+def decide(prediction: Prediction, *, required_margin_m: float) -> Decision:
+    """Accepted = it seats and (when a margin, in m, is required) the combined margin suffices."""
+    margin = (
+        None
+        if prediction.margins is None
+        else combined_margin(prediction.margins, prediction.design.width)
+    )
+    if not prediction.seated:
+        return Decision(False, margin, required_margin_m, f"{prediction.outcome.name}")
+    if required_margin_m > 0.0:
+        if margin is None:
+            return Decision(False, None, required_margin_m, "margin required but not computed")
+        if margin < required_margin_m:
+            return Decision(
+                False,
+                margin,
+                required_margin_m,
+                f"seats, but margin {margin:.4g} m < required {required_margin_m:.4g} m",
+            )
+    return Decision(True, margin, required_margin_m, "seats")
+
+
+def required_margin_m(tolerance_m: float, config: NodeConfig) -> float:
+    """The margin (m) a query asks for: its tolerance when finite and > 0, else ``min_margin``."""
+    if math.isfinite(tolerance_m) and tolerance_m > 0.0:
+        return tolerance_m
+    return config.min_margin
+
+
+# --- verdicts -------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Rejected:
+    """A pose that is not predicted: publish an ERROR status with ``code`` and ``detail``."""
+
+    stamp_ns: int
+    """The input's stamp (ns), 0 when there was no input."""
+    code: str
+    """A key of :data:`INPUT_ERRORS`."""
+    detail: str
+
+    accepted = False
+
+
+@dataclass(frozen=True)
+class Predicted:
+    """A simulated pose: the prediction, whether it is accepted and how long it took."""
+
+    stamp_ns: int
+    """The input's stamp (ns)."""
+    start: DockStart
+    prediction: Prediction
+    decision: Decision
+    compute_s: float
+    """Wall time of the simulation, margins included (s)."""
+
+    @property
+    def accepted(self) -> bool:
+        """It seats (with the required margin)."""
+        return self.decision.accepted
+
+    @property
+    def final_pose(self) -> PlanarPose:
+        """The final pose of the moving pivot frame in the base frame at the start."""
+        p = self.prediction
+        return moving_pose(p.pivot_m[0], p.pivot_m[1], p.phi_m)
+
+    @property
+    def seated_pose(self) -> PlanarPose | None:
+        """The pose it seats at (published, latched), or None when it does not seat."""
+        return self.final_pose if self.prediction.seated else None
+
+
+Verdict = Rejected | Predicted
+
+
+def simulate(
+    config: NodeConfig, start: DockStart, *, path: bool, margins: bool
+) -> tuple[Prediction, float]:
+    """Predict one start with the config's design and physics; the prediction and its wall
+    time (s). Raises what :func:`xface_core.predict.predict` raises."""
+    t0 = time.perf_counter()
+    prediction = predict(
+        config.design,
+        start.x0,
+        start.theta0,
+        y_start=start.y_start,
+        damping_ratio=config.physics.damping_ratio,
+        friction=config.physics.friction,
+        path=path,
+        margins=margins,
+    )
+    return prediction, time.perf_counter() - t0
+
+
+def evaluate(
+    pose: PoseInput,
+    config: NodeConfig,
+    *,
+    now_ns: int | None,
+    required_margin_m: float,
+    path: bool,
+    margins: bool,
+) -> Verdict:
+    """Check, simulate and decide one pose; never raises for a bad pose or a failed simulation.
+
+    ``now_ns`` is the clock for the stamp check (None: no check), ``required_margin_m`` the
+    combined margin (m) a seat needs, ``path`` / ``margins`` what the simulation computes.
+    """
+    try:
+        start = check_pose(pose, config, now_ns=now_ns)
+    except InputRejected as exc:
+        return Rejected(pose.stamp_ns, exc.code, exc.detail)
+    try:
+        prediction, compute_s = simulate(config, start, path=path, margins=margins)
+    except XfaceError as exc:
+        return Rejected(pose.stamp_ns, "invalid_input", str(exc))
+    except Exception as exc:  # a bug in the simulator must not take the node down
+        return Rejected(pose.stamp_ns, "internal_error", repr(exc))
+    if prediction.outcome is Outcome.INVALID_INPUT:
+        return Rejected(pose.stamp_ns, "invalid_input", prediction.reason)
+    decision = decide(prediction, required_margin_m=required_margin_m)
+    return Predicted(pose.stamp_ns, start, prediction, decision, compute_s)
+
+
+def evaluate_streamed(
+    pose: PoseInput, config: NodeConfig, *, receive_ns: int, path: bool
+) -> Verdict:
+    """A streamed pose: the stamp is judged at arrival (``receive_ns``: waiting for the worker
+    is the node's delay, not the input's), margins as configured, ``min_margin`` required."""
+    return evaluate(
+        pose,
+        config,
+        now_ns=receive_ns,
+        required_margin_m=config.min_margin,
+        path=path,
+        margins=config.need_margins,
+    )
+
+
+def evaluate_query(
+    requested: PoseInput,
+    latest: PoseInput | None,
+    config: NodeConfig,
+    *,
+    tolerance_m: float,
+    now_ns: int,
+) -> Verdict:
+    """A planner query (GetPlan): which start to predict, then the verdict, always with a path.
+
+    An empty ``requested.frame_id`` means the latest streamed pose, subject to
+    ``input_timeout_s`` against ``now_ns``; an explicit start is not checked for staleness
+    (planners ask about hypothetical poses). ``tolerance_m`` > 0 is the required combined
+    margin; 0 uses ``min_margin``.
+    """
+    check_now_ns: int | None = None
+    pose = requested
+    if not requested.frame_id:
+        if latest is None:
+            return Rejected(0, "no_pose", "no pose received yet")
+        pose, check_now_ns = latest, now_ns
+    required = required_margin_m(tolerance_m, config)
+    return evaluate(
+        pose,
+        config,
+        now_ns=check_now_ns,
+        required_margin_m=required,
+        path=True,
+        margins=config.need_margins or required > 0.0,
+    )
+
+
+# --- what /diagnostics counts ---------------------------------------------------------------
+
+
+@dataclass
+class StatsWindow:
+    """Counters and samples since the last diagnostics message."""
+
+    received: int = 0
+    predicted: int = 0
+    latency_ms: list[float] = field(default_factory=list)
+    """Input stamp to publication (ms), one per prediction."""
+    compute_ms: list[float] = field(default_factory=list)
+    """Simulation wall time (ms), one per prediction."""
+
+
+@dataclass
+class StatsCounts:
+    """Running totals and the last event of each kind (the counts the slot does not keep)."""
+
+    warming_up: bool = True
+    """True until the simulator is loaded (the first simulation compiles or loads it)."""
+    predicted_total: int = 0
+    input_errors_total: int = 0
+    dds_lost_total: int = 0
+    service_calls_total: int = 0
+    recording_errors_total: int = 0
+    last_outcome: str = "none"
+    last_accepted: bool | None = None
+    """None when the last streamed pose was rejected, or before the first."""
+    last_input_error: str = ""
+    last_latency_ms: float = math.nan
+    last_stamp_ns: int | None = None
+    """Header stamp (ns) of the last pose received."""
+
+
+@dataclass(frozen=True)
+class StatsSnapshot:
+    """Everything ``/diagnostics`` reports, taken at one instant (``now_ns``)."""
+
+    now_ns: int
+    window: StatsWindow
+    window_s: float
+    """Length of the window (s), > 0."""
+    received_total: int
+    dropped_total: int
+    counts: StatsCounts
+
+    @property
+    def pose_age_s(self) -> float:
+        """Clock minus the last received pose's stamp (s); NaN before the first pose."""
+        if self.counts.last_stamp_ns is None:
+            return math.nan
+        return (self.now_ns - self.counts.last_stamp_ns) * 1e-9
+
+
+class PredictorStats:
+    """Thread-safe counters for ``/diagnostics``: which events count, and how."""
+
+    #: Bound on the samples kept per diagnostics window (memory stays flat at any rate).
+    MAX_SAMPLES = 5000
+
+    def __init__(self, *, start_ns: int) -> None:
+        self._lock = threading.Lock()
+        self._window = StatsWindow()
+        self._window_start_ns = start_ns
+        self._counts = StatsCounts()
+
+    def count_received(self, stamp_ns: int) -> None:
+        """A pose arrived (``stamp_ns``: its header stamp)."""
+        with self._lock:
+            self._window.received += 1
+            self._counts.last_stamp_ns = stamp_ns
+
+    def count_verdict(self, verdict: Verdict, *, latency_ms: float) -> None:
+        """A streamed pose was answered (``latency_ms``: its stamp to publication)."""
+        with self._lock:
+            counts = self._counts
+            if isinstance(verdict, Rejected):
+                counts.input_errors_total += 1
+                counts.last_outcome = Outcome.INVALID_INPUT.name
+                counts.last_accepted = None
+                counts.last_input_error = verdict.code
+                return
+            counts.predicted_total += 1
+            counts.last_outcome = verdict.prediction.outcome.name
+            counts.last_accepted = verdict.accepted
+            counts.last_input_error = ""
+            counts.last_latency_ms = latency_ms
+            self._window.predicted += 1
+            if len(self._window.latency_ms) < self.MAX_SAMPLES:
+                self._window.latency_ms.append(latency_ms)
+                self._window.compute_ms.append(verdict.compute_s * 1e3)
+
+    def count_service_call(self) -> None:
+        with self._lock:
+            self._counts.service_calls_total += 1
+
+    def count_recording_error(self) -> None:
+        with self._lock:
+            self._counts.recording_errors_total += 1
+
+    def set_dds_lost_total(self, total: int) -> None:
+        """The middleware's running count of lost messages."""
+        with self._lock:
+            self._counts.dds_lost_total = int(total)
+
+    def set_warming_up(self, warming_up: bool) -> None:
+        with self._lock:
+            self._counts.warming_up = warming_up
+
+    @property
+    def warming_up(self) -> bool:
+        """True until the simulator is loaded."""
+        with self._lock:
+            return self._counts.warming_up
+
+    def take_snapshot(
+        self, now_ns: int, *, received_total: int, dropped_total: int
+    ) -> StatsSnapshot:
+        """The counts and the window since the last call (at ``now_ns``), which starts a new
+        window. ``received_total`` and ``dropped_total`` come from the pose slot."""
+        with self._lock:
+            window, self._window = self._window, StatsWindow()
+            start_ns, self._window_start_ns = self._window_start_ns, now_ns
+            counts = replace(self._counts)
+        return StatsSnapshot(
+            now_ns=now_ns,
+            window=window,
+            window_s=max((now_ns - start_ns) * 1e-9, 1e-9),
+            received_total=received_total,
+            dropped_total=dropped_total,
+            counts=counts,
+        )

@@ -1,0 +1,216 @@
+"""The prediction worker: one thread that simulates the newest streamed pose.
+
+The subscription hands each pose to :meth:`PredictionWorker.submit`, which only stores it in a
+one-slot mailbox (:class:`~xface_ros.latest.LatestSlot`: the newest pose wins, an overwritten
+one is counted as dropped). The worker thread first warms the simulator up (the first
+simulation loads, on a fresh checkout compiles, the compiled kernels: up to tens of seconds),
+then takes the newest pose whenever it is free, asks :mod:`xface_ros.decision` for the verdict
+and hands it to the node's ``publish`` callback. It owns the :class:`PredictorStats`.
+
+Imports no rclpy: the node passes in its clock, its logger and its publishing as callables,
+so the worker is tested without DDS (tests/ros/test_worker.py).
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Callable
+from typing import Any, Protocol
+
+from xface_core.predict import predict
+from xface_core.result import Prediction
+from xface_ros.config import NodeConfig
+from xface_ros.decision import (
+    PoseInput,
+    PredictorStats,
+    Rejected,
+    StatsSnapshot,
+    Verdict,
+    evaluate_streamed,
+)
+from xface_ros.latest import LatestSlot, Received
+from xface_ros.recorder import Recorder
+
+__all__ = ["LOG_THROTTLE_S", "Logger", "PredictionWorker", "warm_up_simulator"]
+
+#: Seconds between repeats of the same throttled log line.
+LOG_THROTTLE_S = 5.0
+
+#: How long the worker waits for a pose before it checks whether to stop (s).
+_POLL_S = 0.2
+
+
+class Logger(Protocol):
+    """What the worker needs of a logger (rclpy's node logger has it)."""
+
+    def info(self, message: str, **kwargs: Any) -> Any: ...
+    def warning(self, message: str, **kwargs: Any) -> Any: ...
+    def error(self, message: str, **kwargs: Any) -> Any: ...
+
+
+def warm_up_simulator(config: NodeConfig) -> None:
+    """One prediction, so the first real pose does not pay for loading compiled code.
+
+    ``margins=True`` also loads the batch kernel the margin search and ``min_margin`` use.
+    """
+    predict(
+        config.design,
+        0.0,
+        0.0,
+        damping_ratio=config.physics.damping_ratio,
+        friction=config.physics.friction,
+        path=True,
+        margins=True,
+    )
+
+
+class PredictionWorker:
+    """Simulates streamed poses on its own thread, newest first; owns the pose slot and stats.
+
+    Parameters
+    ----------
+    config : callable
+        The node's current :class:`NodeConfig`; read once per pose.
+    now_ns : callable
+        The node's clock (ns).
+    wants_path : callable
+        Whether anyone needs the alignment path now (path or markers subscribers, a
+        recording); paths are not computed otherwise.
+    publish : callable
+        Publishes a verdict with the config it was computed with; called on the worker thread.
+    logger : Logger
+    recorder : Recorder, optional
+        Gets every streamed prediction; a failure is counted and logged, never fatal.
+    shutting_down : callable, optional
+        True once the node is going away: a failed publish then ends the worker quietly.
+    warm_up : callable, optional
+        Loads the simulator; default :func:`warm_up_simulator`.
+    """
+
+    def __init__(
+        self,
+        *,
+        config: Callable[[], NodeConfig],
+        now_ns: Callable[[], int],
+        wants_path: Callable[[], bool],
+        publish: Callable[[Verdict, NodeConfig], None],
+        logger: Logger,
+        recorder: Recorder | None = None,
+        shutting_down: Callable[[], bool] = lambda: False,
+        warm_up: Callable[[NodeConfig], None] | None = None,
+    ) -> None:
+        self._config = config
+        self._now_ns = now_ns
+        self._wants_path = wants_path
+        self._publish = publish
+        self._logger = logger
+        self._recorder = recorder
+        self._shutting_down = shutting_down
+        self._warm_up_simulator = warm_up or warm_up_simulator
+        self.slot: LatestSlot[PoseInput] = LatestSlot()
+        self.stats = PredictorStats(start_ns=now_ns())
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, name="xface_predictor", daemon=True)
+
+    # --- the node's side --------------------------------------------------------------------
+
+    def start(self) -> None:
+        """Start the thread: it warms up first, then predicts."""
+        self._thread.start()
+
+    def submit(self, pose: PoseInput, *, receive_ns: int) -> None:
+        """Store a received pose (``receive_ns``: the node clock at arrival) for the worker."""
+        self.slot.put(pose, receive_ns=receive_ns)
+        self.stats.count_received(pose.stamp_ns)
+
+    @property
+    def latest_pose(self) -> PoseInput | None:
+        """The newest pose received, predicted or not (the service's "use the latest")."""
+        latest = self.slot.latest
+        return None if latest is None else latest.message
+
+    @property
+    def warming_up(self) -> bool:
+        """True until the warm-up simulation has finished (or failed)."""
+        return self.stats.warming_up
+
+    def take_stats(self, now_ns: int) -> StatsSnapshot:
+        """The diagnostics snapshot at ``now_ns``; starts a new window."""
+        return self.stats.take_snapshot(
+            now_ns, received_total=self.slot.received, dropped_total=self.slot.dropped
+        )
+
+    def stop(self, timeout_s: float = 30.0) -> None:
+        """Stop the thread and wait up to ``timeout_s`` for it (idempotent)."""
+        self._stop.set()
+        self.slot.close()
+        if self._thread.is_alive():
+            self._thread.join(timeout=timeout_s)
+
+    # --- the worker thread ------------------------------------------------------------------
+
+    def _run(self) -> None:
+        self._warm_up()
+        while not self._stop.is_set():
+            item = self.slot.take(timeout_s=_POLL_S)
+            if item is None:
+                continue
+            try:
+                self.process(item)
+            except Exception as exc:  # a bug in one prediction must not end the stream
+                if self._shutting_down():
+                    return  # the publishers are gone: nothing to report to
+                self._report_failure(item.message, exc)
+
+    def _warm_up(self) -> None:
+        t0 = time.perf_counter()
+        try:
+            self._warm_up_simulator(self._config())
+        except Exception as exc:  # reported again, per pose, by the predictions
+            self._logger.warning(f"warm-up prediction failed: {exc!r}")
+        else:
+            elapsed_s = time.perf_counter() - t0
+            if elapsed_s > 1.0:
+                self._logger.info(f"simulator loaded in {elapsed_s:.1f} s")
+        finally:
+            self.stats.set_warming_up(False)
+
+    def process(self, item: Received[PoseInput]) -> Verdict:
+        """Decide one streamed pose, publish, count and record it; the verdict."""
+        config = self._config()
+        verdict = evaluate_streamed(
+            item.message,
+            config,
+            receive_ns=item.receive_ns,
+            path=self._recorder is not None or self._wants_path(),
+        )
+        self._deliver(verdict, config)
+        return verdict
+
+    def _deliver(self, verdict: Verdict, config: NodeConfig) -> None:
+        self._publish(verdict, config)
+        latency_ms = (self._now_ns() - verdict.stamp_ns) * 1e-6
+        self.stats.count_verdict(verdict, latency_ms=latency_ms)
+        if isinstance(verdict, Rejected):
+            self._logger.error(
+                f"pose rejected: {verdict.code}: {verdict.detail}",
+                throttle_duration_sec=LOG_THROTTLE_S,
+            )
+        elif self._recorder is not None:
+            self._record(self._recorder, verdict.prediction, verdict.stamp_ns)
+
+    def _record(self, recorder: Recorder, prediction: Prediction, stamp_ns: int) -> None:
+        try:
+            recorder.record(prediction, stamp_ns=stamp_ns)
+        except Exception as exc:  # a recording problem must never stop the predictions
+            self.stats.count_recording_error()
+            self._logger.error(f"recording failed: {exc!r}", throttle_duration_sec=LOG_THROTTLE_S)
+
+    def _report_failure(self, pose: PoseInput, exc: Exception) -> None:
+        """Publish an ``internal_error`` for a pose whose processing raised."""
+        try:
+            self._deliver(Rejected(pose.stamp_ns, "internal_error", repr(exc)), self._config())
+        except Exception:
+            if not self._shutting_down():  # not a shutdown race: a real failure, keep it
+                raise
