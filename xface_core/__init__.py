@@ -18,20 +18,16 @@ Examples
 
 from __future__ import annotations
 
+from .codes import Outcome, Reason
 from .errors import GeometryError, InputError, XfaceError, XfaceValueError
 from .geometry import FaceDesign, custom_face, make_face, s_face, v_face, x_face
 from .grids import PAPER_H_OVER_D, PAPER_R_P, theta_grid, x0_grid
 from .margins import outcome_margins
-from .outcome import Outcome
-from .predict import (
-    DEFAULT_SETTINGS,
-    BatchResult,
-    SolverSettings,
-    predict,
-    predict_batch,
-)
+from .physics import DEFAULT_SETTINGS, Physics, SolverSettings
+from .predict import predict
 from .regions import largest_centred_rectangle, largest_rectangle
 from .result import AlignmentPath, Counters, Margins, Phase, Prediction
+from .runner import BatchResult, predict_batch
 from .sweep import AcceptanceMap, MTable, acceptance_map, m_table
 
 __all__ = [
@@ -49,7 +45,9 @@ __all__ = [
     "Margins",
     "Outcome",
     "Phase",
+    "Physics",
     "Prediction",
+    "Reason",
     "SolverSettings",
     "XfaceError",
     "XfaceValueError",

@@ -26,12 +26,13 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 
-from . import kernel as K
-from .contact import pair_table
+from .contact import clear_cache
 from .geometry import FaceDesign, make_face
 from .grids import theta_grid, x0_grid
 from .outcome import Outcome
-from .predict import DEFAULT_SETTINGS, SolverSettings, predict, predict_batch, start_height
+from .physics import DEFAULT_SETTINGS, Physics, SolverSettings
+from .predict import predict
+from .runner import predict_batch, run_flat
 from .sweep import acceptance_map, m_table
 
 __all__ = ["REFERENCE_SETTINGS", "run_bench"]
@@ -68,30 +69,20 @@ class _Finals:
 
 def _finals(design: FaceDesign, settings: SolverSettings) -> _Finals:
     """Run the 41 x 41 grid and keep final states plus the penetration at the end."""
-    table = pair_table(design)
     X, T = np.meshgrid(x0_grid(41), theta_grid(41), indexing="ij")
     xs, ts = X.ravel(), T.ravel()
-    n = xs.size
-    out = _Finals(np.empty(n, np.int8), np.empty(n), np.empty(n), np.empty(n), np.zeros(n))
-    vec = settings.vector(1.0)
-    path = np.zeros((1, 4))
-    pairs = np.full((1, 4), -1, dtype=np.int64)
-    for k in range(n):
-        y0 = start_height(design, float(ts[k]))
-        res = K.simulate(
-            table.data,
-            table.base_edges,
-            table.moving_edges,
-            design.mated_distance,
-            float(xs[k]),
-            float(ts[k]),
-            y0,
-            vec,
-            path,
-            pairs,
+    runs = run_flat(design, xs, ts, Physics(settings=settings), threads=1)
+    out = _Finals(
+        runs["outcome"].astype(np.int8),
+        runs["phi_b"].copy(),
+        runs["phi_m"].copy(),
+        runs["y_m"].copy(),
+        np.zeros(xs.size),
+    )
+    for k in range(xs.size):
+        out.penetration[k] = _overlap_area(
+            design, float(xs[k]), out.phi_b[k], out.phi_m[k], out.y_m[k]
         )
-        out.outcome[k], out.phi_b[k], out.phi_m[k], out.y_m[k] = res[0], res[2], res[3], res[4]
-        out.penetration[k] = _overlap_area(design, float(xs[k]), res[2], res[3], res[4])
     return out
 
 
@@ -250,10 +241,9 @@ def _targets(quick: bool, repeats: int) -> list[str]:
             f"| 81 x 81 map, {face} H/D {h:g} r_p {rp:g}: exact / refined from 41 x 41 "
             f"({wrong} of 6561 nodes differ) | {t_full * 1e3:.0f} / {t_ref * 1e3:.0f} ms | |"
         )
-    from .contact import _pair_table_cached
 
     def uncached() -> None:
-        _pair_table_cached.cache_clear()
+        clear_cache()
         predict(design, 0.3, 0.2, path=False)
 
     t_unc = _median_time(uncached, max(20, repeats * 5))

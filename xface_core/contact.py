@@ -22,16 +22,18 @@ col   meaning
 from __future__ import annotations
 
 import math
+import threading
+from collections import OrderedDict
 from dataclasses import dataclass
-from functools import lru_cache
 
 import numpy as np
 import numpy.typing as npt
-from numba import njit
 
+from ._engine import Model
+from ._engine.pairs import eval_pair
 from .geometry import FaceDesign
 
-__all__ = ["PairTable", "contact_geometry", "pair_table"]
+__all__ = ["PairTable", "clear_cache", "contact_geometry", "eval_pair", "pair_table"]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -57,6 +59,8 @@ class PairTable:
     """(n, 2) all vertices of the moving part, every layer (body frame, D)."""
     base_top: float
     """Highest point of the base part in its body frame (D)."""
+    model: Model
+    """The engine's immutable model built from these arrays."""
 
 
 def _edges(poly: FloatArray, layer: int) -> FloatArray:
@@ -76,9 +80,14 @@ def _pairs(vertices: FloatArray, edges: FloatArray, kind: int) -> FloatArray:
     return np.asarray(rows, dtype=np.float64).reshape(-1, 10)
 
 
-@lru_cache(maxsize=256)
-def _pair_table_cached(key: tuple[object, ...], design: FaceDesign) -> PairTable:
-    del key  # only the cache key
+#: Pair tables kept, least recently used first out (a table is a few kB to a few hundred kB).
+CACHE_SIZE = 64
+
+_cache: OrderedDict[tuple[object, ...], PairTable] = OrderedDict()
+_cache_lock = threading.Lock()
+
+
+def _build(design: FaceDesign) -> PairTable:
     tables, base_edges, moving_edges = [], [], []
     for layer, (base, moving) in enumerate(
         zip(design.base_layers, design.moving_layers, strict=True)
@@ -88,67 +97,42 @@ def _pair_table_cached(key: tuple[object, ...], design: FaceDesign) -> PairTable
         moving_edges.append(me)
         tables.append(_pairs(moving, be, MOVING_VERTEX))
         tables.append(_pairs(base, me, BASE_VERTEX))
+    data = np.ascontiguousarray(np.vstack(tables))
+    base = np.ascontiguousarray(np.vstack(base_edges))
+    moving = np.ascontiguousarray(np.vstack(moving_edges))
     return PairTable(
-        data=np.ascontiguousarray(np.vstack(tables)),
-        base_edges=np.ascontiguousarray(np.vstack(base_edges)),
-        moving_edges=np.ascontiguousarray(np.vstack(moving_edges)),
+        data=data,
+        base_edges=base,
+        moving_edges=moving,
         base_radius=max(float(np.hypot(*p.T).max()) for p in design.base_layers),
         moving_radius=max(float(np.hypot(*p.T).max()) for p in design.moving_layers),
         moving_vertices=np.ascontiguousarray(np.vstack(design.moving_layers)),
         base_top=max(float(p[:, 1].max()) for p in design.base_layers),
+        model=Model(data, base, moving, float(design.mated_distance)),
     )
 
 
 def pair_table(design: FaceDesign) -> PairTable:
-    """The (cached) pair table of a design; the width does not enter it."""
-    return _pair_table_cached(design.cache_key, design)
+    """The pair table of a design, cached by its geometry (equal designs and copies at
+    another width share one table; the cache holds no reference to a design)."""
+    key = design.cache_key
+    with _cache_lock:
+        table = _cache.get(key)
+        if table is not None:
+            _cache.move_to_end(key)
+            return table
+    table = _build(design)
+    with _cache_lock:
+        _cache[key] = table
+        while len(_cache) > CACHE_SIZE:
+            _cache.popitem(last=False)
+    return table
 
 
-@njit(cache=True, nogil=True)
-def eval_pair(
-    row: FloatArray, cb: float, sb: float, cm: float, sm: float, x0: float, y_m: float
-) -> tuple[float, float, float, float, float, float, float, float, float]:
-    """Gap and derivatives of one pair in the world.
-
-    Returns ``(g, u, a_b, a_m, beta, px, py, nx, ny)``: gap (D), edge parameter, the gap's
-    derivatives with respect to phi_B and phi_M (D/rad), ``beta = dg/dy_M``, the world
-    position of the vertex and the world normal of the edge.
-    """
-    vx, vy = row[1], row[2]
-    if row[0] == 0.0:
-        # Moving vertex: P = P_M - R(phi_M) v.  Base edge: R(phi_B) e, normal R(phi_B) n.
-        px = x0 - (cm * vx - sm * vy)
-        py = y_m - (sm * vx + cm * vy)
-        e0x = cb * row[3] - sb * row[4]
-        e0y = sb * row[3] + cb * row[4]
-        e1x = cb * row[5] - sb * row[6]
-        e1y = sb * row[5] + cb * row[6]
-        nx = cb * row[7] - sb * row[8]
-        ny = sb * row[7] + cb * row[8]
-        # d/dphi of a point rotating about a pivot c is J (p - c), J = [[0, -1], [1, 0]].
-        a_b = -ny * px + nx * py
-        a_m = ny * (px - x0) - nx * (py - y_m)
-        beta = ny
-    else:
-        # Base vertex: P = R(phi_B) v.  Moving edge: P_M - R(phi_M) e, normal -R(phi_M) n.
-        px = cb * vx - sb * vy
-        py = sb * vx + cb * vy
-        e0x = x0 - (cm * row[3] - sm * row[4])
-        e0y = y_m - (sm * row[3] + cm * row[4])
-        e1x = x0 - (cm * row[5] - sm * row[6])
-        e1y = y_m - (sm * row[5] + cm * row[6])
-        nx = -(cm * row[7] - sm * row[8])
-        ny = -(sm * row[7] + cm * row[8])
-        a_b = ny * px - nx * py
-        a_m = -ny * (px - x0) + nx * (py - y_m)
-        beta = -ny
-    rx = px - e0x
-    ry = py - e0y
-    dx = e1x - e0x
-    dy = e1y - e0y
-    g = nx * rx + ny * ry
-    u = (rx * dx + ry * dy) / (dx * dx + dy * dy)
-    return g, u, a_b, a_m, beta, px, py, nx, ny
+def clear_cache() -> None:
+    """Forget every cached pair table (benchmarks measure the cold build with it)."""
+    with _cache_lock:
+        _cache.clear()
 
 
 def contact_geometry(

@@ -8,8 +8,9 @@ import numpy as np
 
 from .geometry import FaceDesign
 from .outcome import Outcome
-from .predict import DEFAULT_SETTINGS, SolverSettings, predict_batch
+from .physics import Physics, SolverSettings
 from .result import Margins
+from .runner import predict_batch
 
 __all__ = ["outcome_margins"]
 
@@ -34,9 +35,7 @@ def _flip_distance(
     limit: float,
     step: float,
     resolution: float,
-    damping_ratio: float,
-    friction: float,
-    settings: SolverSettings,
+    physics: Physics,
 ) -> float:
     """Distance along one axis (0: x0 in D, 1: theta0) to the first node whose outcome
     differs from ``outcome``, scanned coarsely (in batches, nearest first, stopping at the
@@ -49,9 +48,7 @@ def _flip_distance(
         xs = np.full(chunk.shape, x0)
         ts = np.full(chunk.shape, theta0)
         (xs if axis == 0 else ts)[:] += direction * chunk * scale
-        codes = predict_batch(
-            design, xs, ts, damping_ratio=damping_ratio, friction=friction, settings=settings
-        ).outcome
+        codes = predict_batch(design, xs, ts, physics=physics).outcome
         found = np.flatnonzero(codes != outcome)
         if found.size:
             flip = start + int(found[0])
@@ -71,9 +68,7 @@ def _flip_distance(
                 theta0 + direction * mid,
             )
         )
-        code = predict_batch(
-            design, [x], [t], damping_ratio=damping_ratio, friction=friction, settings=settings
-        ).outcome[0]
+        code = predict_batch(design, [x], [t], physics=physics).outcome[0]
         if code == outcome:
             lo = mid
         else:
@@ -87,9 +82,10 @@ def outcome_margins(
     theta0: float,
     outcome: Outcome,
     *,
-    damping_ratio: float = 1.0,
-    friction: float = 0.0,
-    settings: SolverSettings = DEFAULT_SETTINGS,
+    physics: Physics | None = None,
+    damping_ratio: float | None = None,
+    friction: float | None = None,
+    settings: SolverSettings | None = None,
 ) -> Margins:
     """Distances from (x0, theta0) to the nearest outcome flip, along x0 and along theta0.
 
@@ -100,13 +96,15 @@ def outcome_margins(
 
     Examples
     --------
-    >>> from xface_core import x_face, predict
+    >>> from xface_core import predict, x_face
     >>> d = x_face(0.25, 2.0)
     >>> m = outcome_margins(d, 0.0, 0.0, predict(d, 0.0, 0.0).outcome)
     >>> 0.0 < m.lateral < 2 * d.mated_distance and 0.0 < m.angle < math.pi
     True
     """
-    common = {"damping_ratio": damping_ratio, "friction": friction, "settings": settings}
+    phys = Physics.resolve(
+        physics, damping_ratio=damping_ratio, friction=friction, settings=settings
+    )
     lateral_limit = 2.0 * design.mated_distance
     lat = [
         _flip_distance(
@@ -119,7 +117,7 @@ def outcome_margins(
             limit=lateral_limit,
             step=LATERAL_STEP,
             resolution=LATERAL_RESOLUTION,
-            **common,  # type: ignore[arg-type]
+            physics=phys,
         )
         for s in (-1.0, 1.0)
     ]
@@ -134,7 +132,7 @@ def outcome_margins(
             limit=math.pi,
             step=ANGLE_STEP,
             resolution=ANGLE_RESOLUTION,
-            **common,  # type: ignore[arg-type]
+            physics=phys,
         )
         for s in (-1.0, 1.0)
     ]

@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, fields, replace
 from numbers import Integral, Real
+from typing import cast
 
 from .errors import XfaceValueError
 
@@ -19,6 +20,14 @@ __all__ = ["DEFAULT_PHYSICS", "DEFAULT_SETTINGS", "MAX_FRICTION", "Physics", "So
 
 #: Largest accepted Coulomb friction coefficient (steel on steel is about 0.6).
 MAX_FRICTION = 10.0
+
+
+def _real(value: object) -> float | None:
+    """``value`` as a float if it is a real number (not a bool), else None."""
+    if isinstance(value, bool) or not isinstance(value, Real):
+        return None
+    return float(value)
+
 
 #: Bounds of the solver's tolerances (dimensionless or D): outside them the integrator is
 #: either meaningless (>= 1) or below double precision's resolution of the state.
@@ -62,13 +71,17 @@ class SolverSettings:
     def __post_init__(self) -> None:
         lo, hi = _TOLERANCE_RANGE
         for name in ("rtol", "atol", "event_tol", "touch_tol", "seat_tol"):
-            value = getattr(self, name)
-            if not (isinstance(value, Real) and lo <= value <= hi):
-                raise XfaceValueError(f"settings.{name} must be in [{lo:g}, {hi:g}], got {value!r}")
+            value = _real(getattr(self, name))
+            if value is None or not lo <= value <= hi:
+                raise XfaceValueError(
+                    f"settings.{name} must be in [{lo:g}, {hi:g}], got {getattr(self, name)!r}"
+                )
         for name in ("max_step", "first_step", "jam_speed"):
-            value = getattr(self, name)
-            if not (isinstance(value, Real) and 0.0 < value < math.inf):
-                raise XfaceValueError(f"settings.{name} must be finite and > 0, got {value!r}")
+            value = _real(getattr(self, name))
+            if value is None or not 0.0 < value < math.inf:
+                raise XfaceValueError(
+                    f"settings.{name} must be finite and > 0, got {getattr(self, name)!r}"
+                )
         for name in ("max_steps", "max_events"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, Integral) or value < 1:
@@ -85,6 +98,10 @@ class SolverSettings:
 
 
 DEFAULT_SETTINGS = SolverSettings()
+
+#: The paper's model: equal rotational damping of both parts, no friction.
+DEFAULT_DAMPING_RATIO = 1.0
+DEFAULT_FRICTION = 0.0
 
 
 @dataclass(frozen=True)
@@ -104,28 +121,30 @@ class Physics:
     xface_core.errors.XfaceValueError: damping_ratio must be > 0 (inf holds the base fixed), got 0.0
     """
 
-    damping_ratio: float = 1.0
+    damping_ratio: float = DEFAULT_DAMPING_RATIO
     """Rotational damping of the base over that of the moving part, c_B / c_M (> 0);
     ``inf`` holds the base fixed."""
-    friction: float = 0.0
+    friction: float = DEFAULT_FRICTION
     """Coulomb friction coefficient at every contact, in [0, MAX_FRICTION] (0: the paper's
     frictionless model)."""
     settings: SolverSettings = field(default=DEFAULT_SETTINGS)
     """Numerical settings of the integrator."""
 
     def __post_init__(self) -> None:
-        d, mu = self.damping_ratio, self.friction
-        if isinstance(d, bool) or not isinstance(d, Real) or not d > 0.0:  # rejects NaN
+        d, mu = _real(cast(object, self.damping_ratio)), _real(cast(object, self.friction))
+        if d is None or not d > 0.0:  # also rejects NaN
             raise XfaceValueError(
-                f"damping_ratio must be > 0 (inf holds the base fixed), got {d!r}"
+                f"damping_ratio must be > 0 (inf holds the base fixed), got {self.damping_ratio!r}"
             )
-        if isinstance(mu, bool) or not isinstance(mu, Real) or not 0.0 <= mu <= MAX_FRICTION:
-            raise XfaceValueError(f"friction must be in [0, {MAX_FRICTION:g}], got {mu!r}")
+        if mu is None or not 0.0 <= mu <= MAX_FRICTION:
+            raise XfaceValueError(
+                f"friction must be in [0, {MAX_FRICTION:g}], got {self.friction!r}"
+            )
         if not isinstance(self.settings, SolverSettings):
             raise XfaceValueError(f"settings must be a SolverSettings, got {self.settings!r}")
         # Normalise ints (a YAML "1" or a CLI "0") so equal physics compare and hash equal.
-        object.__setattr__(self, "damping_ratio", float(d))
-        object.__setattr__(self, "friction", float(mu))
+        object.__setattr__(self, "damping_ratio", d)
+        object.__setattr__(self, "friction", mu)
 
     @property
     def base_fixed(self) -> bool:
@@ -143,18 +162,18 @@ class Physics:
     ) -> Physics:
         """The physics an entry point runs with: ``physics`` itself, or one built from the
         loose keyword arguments (the older spelling, still accepted); not both."""
-        loose = {
-            "damping_ratio": damping_ratio,
-            "friction": friction,
-            "settings": settings,
-        }
-        given = {k: v for k, v in loose.items() if v is not None}
+        loose = {"damping_ratio": damping_ratio, "friction": friction, "settings": settings}
+        given = sorted(k for k, v in loose.items() if v is not None)
         if physics is None:
-            return cls(**given)
+            return cls(
+                damping_ratio=DEFAULT_DAMPING_RATIO if damping_ratio is None else damping_ratio,
+                friction=DEFAULT_FRICTION if friction is None else friction,
+                settings=DEFAULT_SETTINGS if settings is None else settings,
+            )
         if not isinstance(physics, Physics):
             raise XfaceValueError(f"physics must be a Physics, got {physics!r}")
         if given:
-            names = ", ".join(sorted(given))
+            names = ", ".join(given)
             raise XfaceValueError(f"give either physics or {names}, not both")
         return physics
 

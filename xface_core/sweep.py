@@ -22,8 +22,9 @@ from .errors import XfaceValueError
 from .geometry import FaceDesign, make_face
 from .grids import PAPER_GRID_SIZE, PAPER_H_OVER_D, PAPER_R_P, ThetaGridKind, theta_grid, x0_grid
 from .outcome import Outcome
-from .predict import DEFAULT_SETTINGS, SolverSettings, predict_batch
+from .physics import Physics, SolverSettings
 from .regions import CellRect, largest_centred_rectangle, largest_rectangle
+from .runner import predict_batch
 
 __all__ = ["AcceptanceMap", "MTable", "acceptance_map", "m_table"]
 
@@ -84,9 +85,10 @@ def acceptance_map(
     *,
     grid: int = PAPER_GRID_SIZE,
     theta_kind: ThetaGridKind = "symmetric",
-    damping_ratio: float = 1.0,
-    friction: float = 0.0,
-    settings: SolverSettings = DEFAULT_SETTINGS,
+    physics: Physics | None = None,
+    damping_ratio: float | None = None,
+    friction: float | None = None,
+    settings: SolverSettings | None = None,
     use_symmetry: bool = True,
     coarse: int | None = None,
     threads: int | None = None,
@@ -112,6 +114,9 @@ def acceptance_map(
     >>> amap.outcomes.shape, amap.M > 0
     ((11, 11), True)
     """
+    phys = Physics.resolve(
+        physics, damping_ratio=damping_ratio, friction=friction, settings=settings
+    )
     x_d = x0_grid(grid)
     th = theta_grid(grid, theta_kind)
     X, T = np.meshgrid(x_d, th, indexing="ij")
@@ -123,9 +128,7 @@ def acceptance_map(
             grid,
             coarse,
             theta_kind,
-            damping_ratio,
-            friction,
-            settings,
+            phys,
             use_symmetry,
             threads,
         )
@@ -136,9 +139,7 @@ def acceptance_map(
             design,
             X.ravel()[:half] * design.width,
             T.ravel()[:half],
-            damping_ratio=damping_ratio,
-            friction=friction,
-            settings=settings,
+            physics=phys,
             threads=threads,
         )
         out = np.empty(flat, dtype=np.int8)
@@ -150,9 +151,7 @@ def acceptance_map(
             design,
             X * design.width,
             T,
-            damping_ratio=damping_ratio,
-            friction=friction,
-            settings=settings,
+            physics=phys,
             threads=threads,
         ).outcome
     seated = outcomes == Outcome.SEATED
@@ -173,9 +172,7 @@ def _refined_outcomes(
     grid: int,
     coarse: int,
     theta_kind: ThetaGridKind,
-    damping_ratio: float,
-    friction: float,
-    settings: SolverSettings,
+    physics: Physics,
     use_symmetry: bool,
     threads: int | None,
 ) -> npt.NDArray[np.int8]:
@@ -188,9 +185,7 @@ def _refined_outcomes(
         design,
         grid=coarse,
         theta_kind=theta_kind,
-        damping_ratio=damping_ratio,
-        friction=friction,
-        settings=settings,
+        physics=physics,
         use_symmetry=use_symmetry,
         threads=threads,
     ).outcomes
@@ -212,9 +207,7 @@ def _refined_outcomes(
             design,
             X[todo] * design.width,
             T[todo],
-            damping_ratio=damping_ratio,
-            friction=friction,
-            settings=settings,
+            physics=physics,
             threads=threads,
         )
         out[todo] = res.outcome
@@ -234,17 +227,11 @@ class MTable:
 
 
 def _map_m(
-    args: tuple[str, float, float, int, ThetaGridKind, float, float, SolverSettings, int],
+    args: tuple[str, float, float, int, ThetaGridKind, Physics, int],
 ) -> int:
-    face, h, rp, grid, theta_kind, damping_ratio, friction, settings, threads = args
+    face, h, rp, grid, theta_kind, physics, threads = args
     return acceptance_map(
-        make_face(face, h, rp),
-        grid=grid,
-        theta_kind=theta_kind,
-        damping_ratio=damping_ratio,
-        friction=friction,
-        settings=settings,
-        threads=threads,
+        make_face(face, h, rp), grid=grid, theta_kind=theta_kind, physics=physics, threads=threads
     ).M
 
 
@@ -256,9 +243,10 @@ def m_table(
     h_over_d: Sequence[float] = PAPER_H_OVER_D,
     r_p: Sequence[float] = PAPER_R_P,
     grid: int = PAPER_GRID_SIZE,
-    damping_ratio: float = 1.0,
-    friction: float = 0.0,
-    settings: SolverSettings = DEFAULT_SETTINGS,
+    physics: Physics | None = None,
+    damping_ratio: float | None = None,
+    friction: float | None = None,
+    settings: SolverSettings | None = None,
     workers: int | None = None,
 ) -> MTable:
     """M for every design of a table: simulated (``"sim"``) or the paper's closed-form
@@ -272,6 +260,9 @@ def m_table(
     >>> int(t.M[0, 1])  # Table III prints 739
     739
     """
+    phys = Physics.resolve(
+        physics, damping_ratio=damping_ratio, friction=friction, settings=settings
+    )
     face = face.upper()
     if method == "bound":
         if face not in ("V", "S"):
@@ -281,14 +272,12 @@ def m_table(
         n_workers = (os.cpu_count() or 1) if workers is None else workers
         # One thread per process: the processes already use every core.
         jobs = [
-            (face, float(h), float(rp), grid, theta_kind, damping_ratio, friction, settings, 1)
-            for h in h_over_d
-            for rp in r_p
+            (face, float(h), float(rp), grid, theta_kind, phys, 1) for h in h_over_d for rp in r_p
         ]
         if n_workers <= 1:
             values = [_map_m(j) for j in jobs]
         else:
-            _map_m(jobs[0])  # compile (or load) the kernel once before forking
+            _map_m(jobs[0])  # compile (or load) the engine once before forking
             with ProcessPoolExecutor(n_workers, mp_context=get_context("fork")) as pool:
                 values = list(pool.map(_map_m, jobs, chunksize=4))
         m = np.asarray(values, dtype=np.int64).reshape(len(h_over_d), len(r_p))

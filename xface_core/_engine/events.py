@@ -1,0 +1,254 @@
+"""Events along a smooth segment: their functions, where they happen, which comes first.
+
+Like scipy's ``solve_ivp`` events in three parts: each event has a signed function (positive
+before, <= 0 once it has happened, :func:`event_value`); :func:`locate` brackets its zero
+within an accepted trial step; :func:`earlier` keeps the first of several. The engine's
+stage :func:`~xface_core._engine.simulate.find_event` scans one trial step with them.
+
+Everything that stays fixed along a segment (the active contacts, their friction states and
+the run's constants) travels as one :class:`Segment`, the trial step as one :class:`Step`
+(Box2D's step context).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+from .integrate import rk_step
+from .motion import slip_margin, velocity
+from .pairs import pair_at
+from .records import (
+    E_BELOW_SEAT,
+    E_CONTACT,
+    E_NONE,
+    E_OFF_EDGE,
+    E_RELEASE,
+    E_SLIP,
+    U_TOL,
+    FloatArray,
+    IntArray,
+    njit_no_refcount,
+)
+
+
+class Segment(NamedTuple):
+    """What is fixed along one smooth segment of the path (units of D, rad)."""
+
+    pairs: FloatArray
+    act: IntArray
+    """Active contacts (first ``n_active``)."""
+    n_active: int
+    fric: FloatArray
+    """Coulomb coefficient and friction states (see :class:`~.records.Work`)."""
+    x0: float
+    y_floor: float
+    """Seat height less the seat tolerance: below it a seat is out of reach."""
+    sqrt_winv_b: float
+    sqrt_winv_m: float
+    winv_b: float
+    winv_m: float
+
+
+class Step(NamedTuple):
+    """A trial step: its start state and its length in descent."""
+
+    phi_b: float
+    phi_m: float
+    y_m: float
+    h: float
+
+
+class Event(NamedTuple):
+    """The earliest event found so far in a step: its kind, pair (-1: none) and position."""
+
+    kind: int
+    pair: int
+    h: float
+    """Descent from the step's start to the event (D)."""
+
+
+NO_EVENT = Event(E_NONE, -1, 0.0)
+
+
+@njit_no_refcount
+def earlier(candidate: Event, best: Event) -> Event:
+    """The earlier of two events (the candidate wins when nothing was found yet)."""
+    if best.kind == E_NONE or candidate.h < best.h:
+        return candidate
+    return best
+
+
+@njit_no_refcount
+def step_to(seg: Segment, step: Step, t: float) -> tuple[float, float, float, float, bool]:
+    """One integration step of length ``t`` from the trial step's start:
+    ``(phi_b, phi_m, err_b, err_m, ok)``."""
+    return rk_step(
+        seg.pairs,
+        seg.act,
+        seg.n_active,
+        step.phi_b,
+        step.phi_m,
+        seg.x0,
+        step.y_m,
+        t,
+        seg.sqrt_winv_b,
+        seg.sqrt_winv_m,
+        seg.winv_b,
+        seg.winv_m,
+        seg.fric,
+    )
+
+
+@njit_no_refcount
+def segment_velocity(
+    seg: Segment, pb: float, pm: float, ym: float
+) -> tuple[float, float, float, float]:
+    """Rate and contact forces at a state of the segment (see :func:`~.motion.velocity`)."""
+    return velocity(
+        seg.pairs, seg.act, seg.n_active, pb, pm, seg.x0, ym, seg.sqrt_winv_b, seg.sqrt_winv_m,
+        seg.fric,
+    )  # fmt: skip
+
+
+@njit_no_refcount
+def event_value(
+    seg: Segment, kind: int, idx: int, slot: int, thr: float, pb: float, pm: float, ym: float
+) -> float:
+    """Signed event function: positive before the event, <= 0 once it has happened.
+
+    ``idx`` is the event's pair, ``slot`` its place in the active set, ``thr`` the gap at
+    which a new contact counts (D).
+    """
+    if kind == E_CONTACT:
+        g, _, _, _, _, _, _, _, _ = pair_at(seg.pairs, idx, pb, pm, seg.x0, ym)
+        return g - thr
+    if kind == E_RELEASE:
+        _, _, l1, l2 = segment_velocity(seg, pb, pm, ym)
+        return l1 if slot == 0 else l2
+    if kind == E_OFF_EDGE:
+        _, u, _, _, _, _, _, _, _ = pair_at(seg.pairs, idx, pb, pm, seg.x0, ym)
+        # A vertex trapped in a corner sits at u = 0 or 1 up to round-off: not an event.
+        return min(u + U_TOL, 1.0 + U_TOL - u)
+    if kind == E_BELOW_SEAT:
+        return ym - seg.y_floor
+    if kind == E_SLIP:
+        return slip_margin(
+            seg.pairs, seg.act, seg.n_active, slot, pb, pm, seg.x0, ym, seg.sqrt_winv_b,
+            seg.sqrt_winv_m, seg.fric,
+        )  # fmt: skip
+    # E_SPUN
+    return math.pi - max(abs(pb), abs(pm))
+
+
+@njit_no_refcount
+def event_after(
+    seg: Segment, step: Step, kind: int, idx: int, slot: int, thr: float, t: float
+) -> float:
+    """The event function on the state one integration step of length ``t`` from the start."""
+    nb, nm, _, _, _ = step_to(seg, step, t)
+    return event_value(seg, kind, idx, slot, thr, nb, nm, step.y_m - t)
+
+
+@njit_no_refcount
+def _hermite_guess(
+    seg: Segment,
+    step: Step,
+    kind: int,
+    idx: int,
+    slot: int,
+    thr: float,
+    nb: float,
+    nm: float,
+    f_lo: float,
+    f_hi: float,
+) -> float:
+    """Root of the event along the cubic Hermite interpolant of the step (no integration);
+    NaN when the rates at the step's ends are not finite."""
+    hi = step.h
+    pb, pm, ym = step.phi_b, step.phi_m, step.y_m
+    v0b, v0m, _, _ = segment_velocity(seg, pb, pm, ym)
+    v1b, v1m, _, _ = segment_velocity(seg, nb, nm, ym - hi)
+    if not math.isfinite(v0b + v0m + v1b + v1m):
+        return math.nan
+    a_lo, a_hi, fa_lo, fa_hi = 0.0, 1.0, f_lo, f_hi
+    for _ in range(60):
+        if a_hi - a_lo <= 1e-13:
+            break
+        tau = a_hi - fa_hi * (a_hi - a_lo) / (fa_hi - fa_lo)
+        if not (a_lo < tau < a_hi):
+            tau = 0.5 * (a_lo + a_hi)
+        t2 = tau * tau
+        t3 = t2 * tau
+        h00 = 2 * t3 - 3 * t2 + 1
+        h10 = t3 - 2 * t2 + tau
+        h01 = -2 * t3 + 3 * t2
+        h11 = t3 - t2
+        ib = h00 * pb + h10 * hi * v0b + h01 * nb + h11 * hi * v1b
+        im = h00 * pm + h10 * hi * v0m + h01 * nm + h11 * hi * v1m
+        fa = event_value(seg, kind, idx, slot, thr, ib, im, ym - tau * hi)
+        if not math.isfinite(fa):
+            break
+        if fa > 0.0:
+            if a_lo == tau:
+                break
+            a_lo, fa_lo = tau, fa
+        else:
+            a_hi, fa_hi = tau, fa
+    return 0.5 * (a_lo + a_hi) * hi
+
+
+@njit_no_refcount
+def locate(
+    seg: Segment, step: Step, event_tol: float, kind: int, idx: int, slot: int, thr: float
+) -> tuple[float, float]:
+    """Step lengths ``(lo, hi)`` bracketing the zero of an event function to ``event_tol``:
+    before the event and just after it (Illinois method).
+
+    The event function is evaluated on the state after one integration step of the trial
+    length from the same start, so the located point lies on the integrated path. An event
+    that has already happened at the step's start (its function is not positive there) is
+    located at the start: ``(0.0, 0.0)``.
+    """
+    lo = 0.0
+    f_lo = event_value(seg, kind, idx, slot, thr, step.phi_b, step.phi_m, step.y_m)
+    hi = step.h
+    nb, nm, _, _, _ = step_to(seg, step, hi)
+    f_hi = event_value(seg, kind, idx, slot, thr, nb, nm, step.y_m - hi)
+    if not f_lo > 0.0:
+        return 0.0, 0.0
+    # Predictor: the root on the step's Hermite interpolant, then a tight bracket around it
+    # checked with real steps. Most events are then pinned with three or four integrations
+    # instead of a dozen.
+    if math.isfinite(f_hi) and f_hi <= 0.0:
+        guess = _hermite_guess(seg, step, kind, idx, slot, thr, nb, nm, f_lo, f_hi)
+        if math.isfinite(guess):
+            delta = max(2e-5 * hi, 4.0 * event_tol)
+            t_lo, t_hi = guess - delta, guess + delta
+            if t_lo > 0.0 and t_hi < hi:
+                g_lo = event_after(seg, step, kind, idx, slot, thr, t_lo)
+                g_hi = event_after(seg, step, kind, idx, slot, thr, t_hi)
+                if g_lo > 0.0 and math.isfinite(g_hi) and g_hi <= 0.0:
+                    lo, f_lo, hi, f_hi = t_lo, g_lo, t_hi, g_hi
+    side = 0
+    for _ in range(100):
+        if hi - lo <= event_tol:
+            break
+        if math.isfinite(f_hi) and f_hi < 0.0 and f_lo > 0.0:
+            mid = hi - f_hi * (hi - lo) / (f_hi - f_lo)
+            if not (lo < mid < hi):
+                mid = 0.5 * (lo + hi)
+        else:
+            mid = 0.5 * (lo + hi)
+        f_mid = event_after(seg, step, kind, idx, slot, thr, mid)
+        if math.isfinite(f_mid) and f_mid > 0.0:
+            lo, f_lo = mid, f_mid
+            if side == 1:
+                f_hi *= 0.5
+            side = 1
+        else:
+            hi, f_hi = mid, f_mid
+            if side == -1:
+                f_lo *= 0.5
+            side = -1
+    return lo, hi

@@ -1,0 +1,160 @@
+"""One Dormand-Prince 5(4) step along the path with the active set fixed, projected back
+onto the active contacts (the projection's correction counts as step error)."""
+
+from __future__ import annotations
+
+import math
+
+from .motion import velocity
+from .pairs import eval_pair
+from .records import TINY, FloatArray, IntArray, njit_no_refcount
+
+# Dormand-Prince 5(4) tableau.
+A21 = 1.0 / 5.0
+A31, A32 = 3.0 / 40.0, 9.0 / 40.0
+A41, A42, A43 = 44.0 / 45.0, -56.0 / 15.0, 32.0 / 9.0
+A51, A52, A53, A54 = 19372.0 / 6561.0, -25360.0 / 2187.0, 64448.0 / 6561.0, -212.0 / 729.0
+A61, A62, A63, A64, A65 = (
+    9017.0 / 3168.0,
+    -355.0 / 33.0,
+    46732.0 / 5247.0,
+    49.0 / 176.0,
+    -5103.0 / 18656.0,
+)
+B1, B3, B4, B5, B6 = 35.0 / 384.0, 500.0 / 1113.0, 125.0 / 192.0, -2187.0 / 6784.0, 11.0 / 84.0
+E1, E3, E4, E5, E6, E7 = (
+    71.0 / 57600.0,
+    -71.0 / 16695.0,
+    71.0 / 1920.0,
+    -17253.0 / 339200.0,
+    22.0 / 525.0,
+    -1.0 / 40.0,
+)
+
+
+@njit_no_refcount
+def project(
+    table: FloatArray,
+    act: IntArray,
+    nact: int,
+    pb: float,
+    pm: float,
+    x0: float,
+    ym: float,
+    winv_b: float,
+    winv_m: float,
+) -> tuple[float, float]:
+    """Newton-project (phi_B, phi_M) onto the active constraints g = 0 at fixed y_M,
+    along the least-dissipation metric (keeps the constraint violation at round-off)."""
+    for _ in range(3):
+        cb0, sb0, cm0, sm0 = math.cos(pb), math.sin(pb), math.cos(pm), math.sin(pm)
+        g1, _, ab1, am1, _, _, _, _, _ = eval_pair(table[act[0]], cb0, sb0, cm0, sm0, x0, ym)
+        if nact == 1:
+            nn = ab1 * ab1 * winv_b + am1 * am1 * winv_m
+            if nn <= 1e-24:
+                break
+            lam = -g1 / nn
+            pb += lam * ab1 * winv_b
+            pm += lam * am1 * winv_m
+            if abs(g1) < 1e-15:
+                break
+        else:
+            g2, _, ab2, am2, _, _, _, _, _ = eval_pair(table[act[1]], cb0, sb0, cm0, sm0, x0, ym)
+            m11 = ab1 * ab1 * winv_b + am1 * am1 * winv_m
+            m12 = ab1 * ab2 * winv_b + am1 * am2 * winv_m
+            m22 = ab2 * ab2 * winv_b + am2 * am2 * winv_m
+            det = m11 * m22 - m12 * m12
+            if det <= 1e-24 * (m11 * m22 + TINY):
+                break
+            l1 = (-g1 * m22 + g2 * m12) / det
+            l2 = (-g2 * m11 + g1 * m12) / det
+            pb += (l1 * ab1 + l2 * ab2) * winv_b
+            pm += (l1 * am1 + l2 * am2) * winv_m
+            if abs(g1) < 1e-15 and abs(g2) < 1e-15:
+                break
+    return pb, pm
+
+
+@njit_no_refcount
+def rk_step(
+    table: FloatArray,
+    act: IntArray,
+    nact: int,
+    pb: float,
+    pm: float,
+    x0: float,
+    ym: float,
+    h: float,
+    sqb: float,
+    sqm: float,
+    winv_b: float,
+    winv_m: float,
+    fric: FloatArray,
+) -> tuple[float, float, float, float, bool]:
+    """One Dormand-Prince step of length h in descent; returns (pb, pm, err_b, err_m, ok)."""
+    k1b, k1m, _, _ = velocity(table, act, nact, pb, pm, x0, ym, sqb, sqm, fric)
+    k2b, k2m, _, _ = velocity(
+        table, act, nact, pb + h * A21 * k1b, pm + h * A21 * k1m, x0, ym - h / 5.0, sqb, sqm, fric
+    )
+    k3b, k3m, _, _ = velocity(
+        table,
+        act,
+        nact,
+        pb + h * (A31 * k1b + A32 * k2b),
+        pm + h * (A31 * k1m + A32 * k2m),
+        x0,
+        ym - h * 0.3,
+        sqb,
+        sqm,
+        fric,
+    )
+    k4b, k4m, _, _ = velocity(
+        table,
+        act,
+        nact,
+        pb + h * (A41 * k1b + A42 * k2b + A43 * k3b),
+        pm + h * (A41 * k1m + A42 * k2m + A43 * k3m),
+        x0,
+        ym - h * 0.8,
+        sqb,
+        sqm,
+        fric,
+    )
+    k5b, k5m, _, _ = velocity(
+        table,
+        act,
+        nact,
+        pb + h * (A51 * k1b + A52 * k2b + A53 * k3b + A54 * k4b),
+        pm + h * (A51 * k1m + A52 * k2m + A53 * k3m + A54 * k4m),
+        x0,
+        ym - h * (8.0 / 9.0),
+        sqb,
+        sqm,
+        fric,
+    )
+    k6b, k6m, _, _ = velocity(
+        table,
+        act,
+        nact,
+        pb + h * (A61 * k1b + A62 * k2b + A63 * k3b + A64 * k4b + A65 * k5b),
+        pm + h * (A61 * k1m + A62 * k2m + A63 * k3m + A64 * k4m + A65 * k5m),
+        x0,
+        ym - h,
+        sqb,
+        sqm,
+        fric,
+    )
+    nb = pb + h * (B1 * k1b + B3 * k3b + B4 * k4b + B5 * k5b + B6 * k6b)
+    nm = pm + h * (B1 * k1m + B3 * k3m + B4 * k4m + B5 * k5m + B6 * k6m)
+    k7b, k7m, _, _ = velocity(table, act, nact, nb, nm, x0, ym - h, sqb, sqm, fric)
+    eb = h * (E1 * k1b + E3 * k3b + E4 * k4b + E5 * k5b + E6 * k6b + E7 * k7b)
+    em = h * (E1 * k1m + E3 * k3m + E4 * k4m + E5 * k5m + E6 * k6m + E7 * k7m)
+    ok = math.isfinite(eb) and math.isfinite(em) and math.isfinite(nb) and math.isfinite(nm)
+    if ok:
+        # The projection's correction is part of the step's error: a large one means the
+        # step left the constraint manifold (e.g. near a turning point of the contact path).
+        qb, qm = project(table, act, nact, nb, nm, x0, ym - h, winv_b, winv_m)
+        eb = max(abs(eb), abs(qb - nb))
+        em = max(abs(em), abs(qm - nm))
+        nb, nm = qb, qm
+    return nb, nm, eb, em, ok

@@ -1,0 +1,184 @@
+"""Stages between smooth segments: the run's start, the choice of contacts and motion at the
+start of an interval, and the exact approach to the next contact when nothing touches."""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+from .ends import Run, end_at_rest, end_run, is_seated, record
+from .motion import choose_motion, friction_modes, velocity
+from .overlap import overlapping
+from .pairs import eval_all_pairs, fill_u_rate, next_contact, touching_pairs
+from .records import (
+    O_BAD_MATE,
+    O_INVALID,
+    O_NO_CONTACT,
+    O_OUT_OF_REACH,
+    O_PASSED,
+    O_SEATED,
+    O_UNRESOLVED,
+    P_APPROACH,
+    R_BELOW_SEAT,
+    R_EVENT_LIMIT,
+    R_FRICTION_LOCK,
+    R_JAMMED,
+    R_NO_CONTACT,
+    R_NONFINITE,
+    R_OUT_OF_REACH,
+    R_OVERLAP,
+    R_PASSED,
+    R_SEATED,
+    UNDECIDED,
+    FloatArray,
+    IntArray,
+    Model,
+    Options,
+    Work,
+    njit_no_refcount,
+)
+
+#: Status of the motion chosen at an interval's start.
+MOVES = 0
+BLOCKED = 1
+
+
+@njit(cache=True, nogil=True)  # allocates below: needs NRT
+def start_run(
+    model: Model,
+    opts: Options,
+    x0: float,
+    theta0: float,
+    y_start: float,
+    run: Run,
+    work: Work,
+    path: FloatArray,
+    path_pairs: IntArray,
+) -> None:
+    """Reset the run to the start pose and end it at once if the pose cannot dock
+    (non-finite, out of reach, interpenetrating)."""
+    run.outcome = UNDECIDED
+    run.reason = -1
+    run.phi_b = 0.0
+    run.phi_m = theta0
+    run.y_m = y_start
+    run.x0 = x0
+    run.steps = 0
+    run.events = 0
+    run.contact_changes = 0
+    run.rejected_steps = 0
+    run.n_samples = 0
+    run.n_active = 0
+    run.n_excluded = 0
+    run.had_contact = False
+    run.h = opts.first_step
+    run.y_floor = 0.0
+    L = model.mated_distance
+    if not (
+        math.isfinite(x0) and math.isfinite(theta0) and math.isfinite(y_start) and math.isfinite(L)
+    ):
+        run.outcome = O_INVALID
+        run.reason = R_NONFINITE
+    elif abs(x0) > L:
+        end_run(run, path, path_pairs, work.act, O_OUT_OF_REACH, R_OUT_OF_REACH, False)
+    elif overlapping(model.base_edges, model.moving_edges, 0.0, theta0, x0, y_start):
+        end_run(run, path, path_pairs, work.act, O_INVALID, R_OVERLAP, False)
+    else:
+        run.y_floor = math.sqrt(L * L - x0 * x0) - opts.seat_tol * max(1.0, L)
+        record(run, path, path_pairs, P_APPROACH, work.act, 0)
+
+
+@njit_no_refcount
+def _hold_cut_contact(
+    model: Model, opts: Options, run: Run, work: Work, nc: int, v0b: float, v0m: float
+) -> tuple[int, float, float]:
+    """With friction, one sliding contact: the frictional rate turns away from the
+    frictionless one, so a touching contact that the frictionless rate cleared may now be
+    cut into. Hold the one cut deepest as well; returns ``(n_active, v_b, v_m)``."""
+    pb, pm, x0, ym = run.phi_b, run.phi_m, run.x0, run.y_m
+    sqb, sqm = opts.sqrt_winv_b, opts.sqrt_winv_m
+    act, ev, cand = work.act, work.ev, work.cand
+    if not friction_modes(model.pairs, act, 1, pb, pm, x0, ym, sqb, sqm, work.fric, v0b, v0m):
+        return 1, v0b, v0m
+    fb, fm, _, _ = velocity(model.pairs, act, 1, pb, pm, x0, ym, sqb, sqm, work.fric)
+    worst = 0.0
+    for k in range(nc):
+        j = cand[k]
+        if j == act[0]:
+            continue
+        short = ev[j, 4] - (ev[j, 2] * fb + ev[j, 3] * fm)
+        if short > 1e-9 * (1.0 + abs(ev[j, 4])) and short > worst:
+            worst = short
+            act[1] = j
+    if worst > 0.0:
+        # Two contacts fix the rate; the frictionless one is the same rate.
+        v0b, v0m, _, _ = velocity(model.pairs, act, 2, pb, pm, x0, ym, sqb, sqm, work.fric)
+        return 2, v0b, v0m
+    return 1, v0b, v0m
+
+
+@njit(cache=True, nogil=True)  # allocates below: needs NRT
+def begin_interval(
+    model: Model, opts: Options, run: Run, work: Work, path: FloatArray, path_pairs: IntArray
+) -> None:
+    """Which contacts act from here, and how do the parts move? Sets ``run.n_active`` and
+    ``work.act`` (and the friction states), or ends the run (budget, seated, blocked)."""
+    L = model.mated_distance
+    if run.events >= opts.max_events:
+        end_run(run, path, path_pairs, work.act, O_UNRESOLVED, R_EVENT_LIMIT, True)
+        return
+    pb, pm, x0, ym = run.phi_b, run.phi_m, run.x0, run.y_m
+    if run.had_contact and is_seated(pb, pm, x0, ym, L, opts.seat_tol):
+        # At the mated pose (to the seat tolerance) nothing is left to decide; going on
+        # would only follow round-off around the seat's corners.
+        end_run(run, path, path_pairs, work.act, O_SEATED, R_SEATED, False)
+        return
+    eval_all_pairs(model.pairs, pb, pm, x0, ym, work.ev)
+    nc = touching_pairs(work.ev, opts.touch_tol, work.exclude, run.n_excluded, work.cand)
+    sqb, sqm = opts.sqrt_winv_b, opts.sqrt_winv_m
+    status, n_new, v0b, v0m = choose_motion(
+        model.pairs, work.ev, work.cand, nc, pb, pm, x0, ym, sqb, sqm, work.act
+    )
+    if status == MOVES and n_new == 1 and opts.friction > 0.0:
+        n_new, v0b, v0m = _hold_cut_contact(model, opts, run, work, nc, v0b, v0m)
+    if status == MOVES and n_new > 0 and opts.friction > 0.0:
+        if not friction_modes(
+            model.pairs, work.act, n_new, pb, pm, x0, ym, sqb, sqm, work.fric, v0b, v0m
+        ):
+            # Friction locks the contact: no admissible slip state lets the parts descend.
+            end_at_rest(run, path, path_pairs, work.act, L, opts.seat_tol, R_FRICTION_LOCK, False)
+            return
+    if status == BLOCKED:
+        # No descent is possible any more.
+        end_at_rest(run, path, path_pairs, work.act, L, opts.seat_tol, R_JAMMED, False)
+        return
+    if n_new != run.n_active:
+        run.contact_changes += 1
+    run.n_active = n_new
+
+
+@njit_no_refcount
+def approach(
+    model: Model, opts: Options, run: Run, work: Work, path: FloatArray, path_pairs: IntArray
+) -> None:
+    """Nothing touches: translate along -y, angles frozen, exactly to the next contact (or
+    end: passed, never touched, or below the seat)."""
+    fill_u_rate(model.pairs, run.phi_b, run.phi_m, work.ev)
+    d, _ = next_contact(work.ev, opts.touch_tol)
+    if not math.isfinite(d):
+        if run.had_contact:
+            end_run(run, path, path_pairs, work.act, O_PASSED, R_PASSED, False)
+        else:
+            end_run(run, path, path_pairs, work.act, O_NO_CONTACT, R_NO_CONTACT, False)
+        return
+    if run.y_m - d < run.y_floor:
+        run.y_m = run.y_floor
+        end_run(run, path, path_pairs, work.act, O_BAD_MATE, R_BELOW_SEAT, False)
+        return
+    run.y_m -= d
+    if d > 1e-7:
+        run.n_excluded = 0
+    run.events += 1
+    run.had_contact = True
+    record(run, path, path_pairs, P_APPROACH, work.act, 0)

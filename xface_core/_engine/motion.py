@@ -1,0 +1,401 @@
+"""Motion with the contacts held: the least-dissipation rate, corners, Coulomb friction.
+
+With q = (phi_B, phi_M) and descent s, each active contact i has a gap g_i, a gradient
+a_i = dg_i/dq and beta_i = dg_i/dy_M. Overdamped frictionless motion is the rate
+``v = dq/ds`` minimising ``v' W v`` subject to ``a_i . v >= beta_i`` (a 2-variable QP solved
+exactly by enumerating its active sets). Corner contacts are alternatives (the admissible set
+near two convex corners is a union), friction turns the rate along ``a - mu s c``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from .pairs import eval_pair, pair_at
+from .records import STICK, TINY, U_CORNER, U_TOL, FloatArray, IntArray, njit_no_refcount
+
+
+@njit_no_refcount
+def feasible(ev: FloatArray, cand: IntArray, nc: int, vb: float, vm: float, tol: float) -> bool:
+    for k in range(nc):
+        j = cand[k]
+        if ev[j, 2] * vb + ev[j, 3] * vm < ev[j, 4] - tol * (1.0 + abs(ev[j, 4])):
+            return False
+    return True
+
+
+@njit_no_refcount
+def solve_qp(
+    ev: FloatArray, cand: IntArray, nc: int, sqb: float, sqm: float, tol: float, act: IntArray
+) -> tuple[int, int, float, float]:
+    """Least-dissipation rate over the candidate contacts.
+
+    Returns ``(status, n_active, v_b, v_m)``; status 1 means no descent is possible
+    (the constraints are infeasible: the parts are blocked).  The QP is strictly convex in
+    the scaled variables u = W^(1/2) v, so the first KKT point found is the optimum.
+    """
+    needs_motion = False
+    for k in range(nc):
+        if ev[cand[k], 4] > tol:
+            needs_motion = True
+    if not needs_motion:
+        return 0, 0, 0.0, 0.0
+    for k in range(nc):
+        i = cand[k]
+        b = ev[i, 4]
+        if b <= 0.0:
+            continue
+        ab = ev[i, 2] * sqb
+        am = ev[i, 3] * sqm
+        nn = ab * ab + am * am
+        if nn <= 1e-24:
+            continue
+        lam = b / nn
+        vb = lam * ab * sqb
+        vm = lam * am * sqm
+        if feasible(ev, cand, nc, vb, vm, tol):
+            act[0] = i
+            # A second contact held with zero slack (e.g. two edges lying flush) is only
+            # satisfied to first order; hold it too, or the path would cut into it at second
+            # order.  Holding it changes v by no more than the feasibility tolerance.
+            best_j = -1
+            best_det = 0.0
+            for m in range(nc):
+                j = cand[m]
+                if j == i:
+                    continue
+                slack = ev[j, 2] * vb + ev[j, 3] * vm - ev[j, 4]
+                if abs(slack) > tol * (1.0 + abs(ev[j, 4])):
+                    continue
+                ab2 = ev[j, 2] * sqb
+                am2 = ev[j, 3] * sqm
+                det = abs(ab * am2 - am * ab2)
+                if det > 1e-9 * math.sqrt(nn * (ab2 * ab2 + am2 * am2)) and det > best_det:
+                    best_det = det
+                    best_j = j
+            if best_j >= 0:
+                act[1] = best_j
+                return 0, 2, vb, vm
+            return 0, 1, vb, vm
+    for k in range(nc):
+        i = cand[k]
+        ab1 = ev[i, 2] * sqb
+        am1 = ev[i, 3] * sqm
+        b1 = ev[i, 4]
+        for m in range(k + 1, nc):
+            j = cand[m]
+            ab2 = ev[j, 2] * sqb
+            am2 = ev[j, 3] * sqm
+            b2 = ev[j, 4]
+            det = ab1 * am2 - am1 * ab2
+            scale = math.sqrt((ab1 * ab1 + am1 * am1) * (ab2 * ab2 + am2 * am2))
+            if abs(det) <= 1e-12 * scale or scale <= 1e-24:
+                continue
+            ub = (b1 * am2 - am1 * b2) / det
+            um = (ab1 * b2 - b1 * ab2) / det
+            l1 = (ub * am2 - ab2 * um) / det
+            l2 = (ab1 * um - am1 * ub) / det
+            if l1 < 0.0 or l2 < 0.0:
+                continue
+            vb = ub * sqb
+            vm = um * sqm
+            if feasible(ev, cand, nc, vb, vm, tol):
+                act[0] = i
+                act[1] = j
+                return 0, 2, vb, vm
+    return 1, 0, 0.0, 0.0
+
+
+@njit_no_refcount
+def tangent(
+    table: FloatArray, i: int, pb: float, pm: float, x0: float, ym: float
+) -> tuple[float, float, float]:
+    """Slip of pair i: the vertex's rate along the edge's unit tangent t, relative to the edge,
+    is ``c . dq/ds + gamma``.  Returns ``(c_b, c_m, gamma)``; ``c`` is also the generalised
+    force of a unit force along t at the contact (on the vertex body; minus it on the other)."""
+    row = table[i]
+    _, _, _, _, _, px, py, nx, ny = pair_at(table, i, pb, pm, x0, ym)
+    # The outward normal is the tangent turned clockwise: t = (-n_y, n_x).
+    tx, ty = -ny, nx
+    if row[0] == 0.0:
+        c_b = -(px * ty - py * tx)
+        c_m = (px - x0) * ty - (py - ym) * tx
+        return c_b, c_m, -ty
+    c_b = px * ty - py * tx
+    c_m = -((px - x0) * ty - (py - ym) * tx)
+    return c_b, c_m, ty
+
+
+@njit_no_refcount
+def velocity(
+    table: FloatArray,
+    act: IntArray,
+    nact: int,
+    pb: float,
+    pm: float,
+    x0: float,
+    ym: float,
+    sqb: float,
+    sqm: float,
+    fric: FloatArray,
+) -> tuple[float, float, float, float]:
+    """Rate dq/ds with the active set held fixed; returns (v_b, v_m, lambda_0, x) where x is
+    lambda_1 for two contacts and, for one stuck contact, its tangential force tau.
+
+    Frictionless, the rate is the least-dissipation one.  With Coulomb friction mu =
+    fric[0], a sliding contact pushes along ``a - mu s c`` (s: the slip's sign, fric[1 + k]),
+    a stuck one (fric[1] = STICK) adds the slip constraint ``c . v = -gamma``.  Non-finite
+    rates signal a singular configuration (a contact normal through both pivots) or a
+    friction lock.
+    """
+    mu = fric[0]
+    cb0, sb0, cm0, sm0 = math.cos(pb), math.sin(pb), math.cos(pm), math.sin(pm)
+    _, _, ab1, am1, b1, _, _, _, _ = eval_pair(table[act[0]], cb0, sb0, cm0, sm0, x0, ym)
+    ab1 *= sqb
+    am1 *= sqm
+    if nact == 1:
+        if mu > 0.0 and fric[1] != 0.0:
+            cb, cm, gam = tangent(table, act[0], pb, pm, x0, ym)
+            cb *= sqb
+            cm *= sqm
+            if fric[1] == STICK:
+                a11 = ab1 * ab1 + am1 * am1
+                a12 = ab1 * cb + am1 * cm
+                a22 = cb * cb + cm * cm
+                det = a11 * a22 - a12 * a12
+                if det <= 1e-24 * max(a11 * a22, TINY):
+                    return math.nan, math.nan, math.nan, math.nan
+                lam = (b1 * a22 + a12 * gam) / det
+                tau = (-a11 * gam - a12 * b1) / det
+                return (lam * ab1 + tau * cb) * sqb, (lam * am1 + tau * cm) * sqm, lam, tau
+            db = ab1 - mu * fric[1] * cb
+            dm = am1 - mu * fric[1] * cm
+            den = ab1 * db + am1 * dm
+            if den <= 1e-24:
+                return math.nan, math.nan, math.nan, 0.0
+            lam = b1 / den
+            return lam * db * sqb, lam * dm * sqm, lam, 0.0
+        nn = ab1 * ab1 + am1 * am1
+        if nn <= 1e-24:
+            return math.nan, math.nan, math.nan, 0.0
+        lam = b1 / nn
+        return lam * ab1 * sqb, lam * am1 * sqm, lam, 0.0
+    _, _, ab2, am2, b2, _, _, _, _ = eval_pair(table[act[1]], cb0, sb0, cm0, sm0, x0, ym)
+    ab2 *= sqb
+    am2 *= sqm
+    det = ab1 * am2 - am1 * ab2
+    if det == 0.0:
+        return math.nan, math.nan, math.nan, math.nan
+    # Two contacts fix the rate; friction only changes how the load is shared.
+    ub = (b1 * am2 - am1 * b2) / det
+    um = (ab1 * b2 - b1 * ab2) / det
+    d1b, d1m, d2b, d2m = ab1, am1, ab2, am2
+    if mu > 0.0:
+        c1b, c1m, _ = tangent(table, act[0], pb, pm, x0, ym)
+        c2b, c2m, _ = tangent(table, act[1], pb, pm, x0, ym)
+        d1b -= mu * fric[1] * c1b * sqb
+        d1m -= mu * fric[1] * c1m * sqm
+        d2b -= mu * fric[2] * c2b * sqb
+        d2m -= mu * fric[2] * c2m * sqm
+    det2 = d1b * d2m - d1m * d2b
+    if det2 == 0.0:
+        return math.nan, math.nan, math.nan, math.nan
+    l1 = (ub * d2m - d2b * um) / det2
+    l2 = (d1b * um - d1m * ub) / det2
+    return ub * sqb, um * sqm, l1, l2
+
+
+@njit_no_refcount
+def slip_margin(
+    table: FloatArray,
+    act: IntArray,
+    nact: int,
+    k: int,
+    pb: float,
+    pm: float,
+    x0: float,
+    ym: float,
+    sqb: float,
+    sqm: float,
+    fric: FloatArray,
+) -> float:
+    """Positive while contact k keeps its friction state: a sliding contact keeps its slip
+    direction, a stuck one keeps its tangential force inside the cone |tau| <= mu lambda."""
+    vb, vm, lam, x = velocity(table, act, nact, pb, pm, x0, ym, sqb, sqm, fric)
+    if fric[1 + k] == STICK:
+        return float(fric[0] * lam - abs(x))
+    cb, cm, gam = tangent(table, act[k], pb, pm, x0, ym)
+    return float(fric[1 + k] * (cb * vb + cm * vm + gam))
+
+
+@njit_no_refcount
+def corners_hold(
+    table: FloatArray,
+    corner: IntArray,
+    n_corner: int,
+    pb: float,
+    pm: float,
+    x0: float,
+    ym: float,
+    vb: float,
+    vm: float,
+) -> bool:
+    """True when a short trial move along the rate leaves no corner pair penetrating.
+
+    A vertex penetrates an edge only if it lies behind the edge's line *and* within the
+    edge's span; near a convex corner this is the exact local non-penetration test.
+    """
+    dd = 1e-7
+    for k in range(n_corner):
+        g0, _, _, _, _, _, _, _, _ = pair_at(table, corner[k], pb, pm, x0, ym)
+        g, u, _, _, _, _, _, _, _ = pair_at(
+            table, corner[k], pb + dd * vb, pm + dd * vm, x0, ym - dd
+        )
+        # Compare with where the pair starts: events leave gaps of +-event_tol behind, and
+        # the trial move's second-order drift is ~dd^2; a real cut shrinks g by ~dd.
+        if g < min(g0, 0.0) - 1e-11 and -U_CORNER <= u <= 1.0 + U_CORNER:
+            return False
+    return True
+
+
+@njit(cache=True, nogil=True)
+def choose_motion(
+    table: FloatArray,
+    ev: FloatArray,
+    cand: IntArray,
+    nc: int,
+    pb: float,
+    pm: float,
+    x0: float,
+    ym: float,
+    sqb: float,
+    sqm: float,
+    act: IntArray,
+) -> tuple[int, int, float, float]:
+    """Least-dissipation rate with corner contacts treated as alternatives.
+
+    A vertex touching an edge inside its span is a hard constraint.  A vertex touching at an
+    edge's end (two corners meeting) is only one of several ways to stay apart: the
+    admissible motions form a union, so each alternative is tried on top of the hard
+    constraints and the admissible one of least dissipation wins.
+    """
+    hard = np.empty(nc + 2, dtype=np.int64)
+    corner = np.empty(nc, dtype=np.int64)
+    nh = 0
+    n_corner = 0
+    for k in range(nc):
+        i = cand[k]
+        u = ev[i, 1]
+        if U_TOL < u < 1.0 - U_TOL:
+            hard[nh] = i
+            nh += 1
+        else:
+            # Pairs just beyond an edge's end are only checked for penetration; they are
+            # never held (holding them would slide them off at once).
+            corner[n_corner] = i
+            n_corner += 1
+    n_alt = 0
+    alt = np.empty(n_corner, dtype=np.int64)
+    for k in range(n_corner):
+        u = ev[corner[k], 1]
+        if -U_TOL <= u <= 1.0 + U_TOL:
+            alt[n_alt] = corner[k]
+            n_alt += 1
+    status, nact, vb, vm = solve_qp(ev, hard, nh, sqb, sqm, 1e-9, act)
+    if n_corner == 0:
+        return status, nact, vb, vm
+    trial = np.full(4, -1, dtype=np.int64)
+    best = math.inf
+    best_n = 0
+    best_vb = 0.0
+    best_vm = 0.0
+    found = False
+    if status == 0 and corners_hold(table, corner, n_corner, pb, pm, x0, ym, vb, vm):
+        found = True
+        best = (vb * vb if sqb > 0.0 else 0.0) / max(sqb * sqb, TINY) + vm * vm / (sqm * sqm)
+        best_n, best_vb, best_vm = nact, vb, vm
+    for extra in range(1, 3):
+        if found:
+            break
+        for a in range(n_alt):
+            for b in range(a, n_alt):
+                if (extra == 1 and b != a) or (extra == 2 and b == a):
+                    continue
+                hard[nh] = alt[a]
+                hard[nh + 1] = alt[b]
+                st, na, tb, tm = solve_qp(ev, hard, nh + extra, sqb, sqm, 1e-9, trial)
+                if st != 0 or not corners_hold(table, corner, n_corner, pb, pm, x0, ym, tb, tm):
+                    continue
+                cost = (tb * tb if sqb > 0.0 else 0.0) / max(sqb * sqb, TINY) + tm * tm / (
+                    sqm * sqm
+                )
+                if cost < best:
+                    found = True
+                    best = cost
+                    best_n, best_vb, best_vm = na, tb, tm
+                    for k in range(4):
+                        act[k] = trial[k]
+    if not found:
+        return 1, 0, 0.0, 0.0
+    return 0, best_n, best_vb, best_vm
+
+
+@njit_no_refcount
+def friction_modes(
+    table: FloatArray,
+    act: IntArray,
+    nact: int,
+    pb: float,
+    pm: float,
+    x0: float,
+    ym: float,
+    sqb: float,
+    sqm: float,
+    fric: FloatArray,
+    v0b: float,
+    v0m: float,
+) -> bool:
+    """Choose each active contact's friction state (fric[1 + k]); False for a friction lock.
+
+    The active set is the frictionless one (least dissipation); friction then sets the motion
+    within it. One contact: slide in the direction the frictionless motion slips, else the
+    other way, else stick; each must be consistent (lambda >= 0, the slip keeps its sign, a
+    stuck contact's force inside the cone). Quasi-static Coulomb problems can admit several
+    consistent states; this order picks one deterministically. Two contacts fix the rate, so
+    each slips the way that rate makes it slip.
+    """
+    fric[1] = 0.0
+    fric[2] = 0.0
+    if nact == 2:
+        for k in range(2):
+            cb, cm, gam = tangent(table, act[k], pb, pm, x0, ym)
+            slip = cb * v0b + cm * v0m + gam
+            fric[1 + k] = 0.0 if abs(slip) < 1e-12 else math.copysign(1.0, slip)
+        return True
+    cb, cm, gam = tangent(table, act[0], pb, pm, x0, ym)
+    slip0 = cb * v0b + cm * v0m + gam
+    first = 1.0 if slip0 >= 0.0 else -1.0
+    dd = 1e-7
+    for mode in (first, -first, STICK):
+        fric[1] = mode
+        vb, vm, lam, _ = velocity(table, act, nact, pb, pm, x0, ym, sqb, sqm, fric)
+        if not (math.isfinite(vb) and math.isfinite(vm) and lam >= 0.0):
+            continue
+        # Judge the state a short move ahead: at a stick-slip transition the state at the
+        # point itself is marginal, and the wrong choice would fire its event at once.
+        qb, qm, yy = pb + dd * vb, pm + dd * vm, ym - dd
+        wb, wm, lam2, x2 = velocity(table, act, nact, qb, qm, x0, yy, sqb, sqm, fric)
+        if not (math.isfinite(wb) and math.isfinite(wm) and lam2 >= 0.0):
+            continue
+        if mode == STICK:
+            if abs(x2) <= fric[0] * lam2:
+                return True
+        else:
+            tb, tm, tg = tangent(table, act[0], qb, qm, x0, yy)
+            if mode * (tb * wb + tm * wm + tg) >= 0.0:
+                return True
+    fric[1] = 0.0
+    return False

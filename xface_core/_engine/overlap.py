@@ -1,0 +1,87 @@
+"""Interpenetration of the two parts (the start pose's check), layer by layer."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from .records import FloatArray
+
+
+@njit(cache=True, nogil=True)
+def segments_cross(
+    ax: float, ay: float, bx: float, by: float, cx: float, cy: float, dx: float, dy: float
+) -> bool:
+    d1 = (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
+    d2 = (bx - ax) * (dy - ay) - (by - ay) * (dx - ax)
+    d3 = (dx - cx) * (ay - cy) - (dy - cy) * (ax - cx)
+    d4 = (dx - cx) * (by - cy) - (dy - cy) * (bx - cx)
+    return d1 * d2 < 0.0 and d3 * d4 < 0.0
+
+
+@njit(cache=True, nogil=True)
+def inside(px: float, py: float, edges: FloatArray, layer: float, rot: FloatArray) -> bool:
+    """Even-odd point-in-polygon test against the world edges of one layer."""
+    inside = False
+    for k in range(edges.shape[0]):
+        if edges[k, 4] != layer:
+            continue
+        x1, y1, x2, y2 = rot[k, 0], rot[k, 1], rot[k, 2], rot[k, 3]
+        if (y1 > py) != (y2 > py):
+            xc = x1 + (py - y1) * (x2 - x1) / (y2 - y1)
+            if px < xc:
+                inside = not inside
+    return inside
+
+
+@njit(cache=True, nogil=True)
+def world_edges(
+    edges: FloatArray, moving: bool, pb: float, pm: float, x0: float, ym: float
+) -> FloatArray:
+    out = np.empty((edges.shape[0], 4))
+    if moving:
+        c, s = math.cos(pm), math.sin(pm)
+        for k in range(edges.shape[0]):
+            for j in range(2):
+                x, y = edges[k, 2 * j], edges[k, 2 * j + 1]
+                out[k, 2 * j] = x0 - (c * x - s * y)
+                out[k, 2 * j + 1] = ym - (s * x + c * y)
+    else:
+        c, s = math.cos(pb), math.sin(pb)
+        for k in range(edges.shape[0]):
+            for j in range(2):
+                x, y = edges[k, 2 * j], edges[k, 2 * j + 1]
+                out[k, 2 * j] = c * x - s * y
+                out[k, 2 * j + 1] = s * x + c * y
+    return out
+
+
+@njit(cache=True, nogil=True)
+def overlapping(
+    base_edges: FloatArray,
+    moving_edges: FloatArray,
+    pb: float,
+    pm: float,
+    x0: float,
+    ym: float,
+) -> bool:
+    """True when the parts interpenetrate in some layer (edges cross or a vertex is inside)."""
+    wb = world_edges(base_edges, False, pb, pm, x0, ym)
+    wm = world_edges(moving_edges, True, pb, pm, x0, ym)
+    for i in range(wb.shape[0]):
+        for j in range(wm.shape[0]):
+            if base_edges[i, 4] != moving_edges[j, 4]:
+                continue
+            if segments_cross(
+                wb[i, 0], wb[i, 1], wb[i, 2], wb[i, 3], wm[j, 0], wm[j, 1], wm[j, 2], wm[j, 3]
+            ):
+                return True
+    for j in range(wm.shape[0]):
+        if inside(wm[j, 0], wm[j, 1], base_edges, moving_edges[j, 4], wb):
+            return True
+    for i in range(wb.shape[0]):
+        if inside(wb[i, 0], wb[i, 1], moving_edges, base_edges[i, 4], wm):
+            return True
+    return False

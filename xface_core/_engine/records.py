@@ -1,0 +1,225 @@
+"""The engine's records: an immutable model and options, a mutable run state, work arrays.
+
+Shaped like MuJoCo's ``mjModel`` / ``mjData``: everything that does not change during a run
+(:class:`Model`: the design's pair table and edges; :class:`Options`: tolerances, budgets and
+physics) is an immutable NamedTuple built once in Python; everything a run changes lives in
+one row of :data:`RUN_DTYPE` (the run's state and counters, which is also what
+``simulate_many`` returns per pose) and in :class:`Work` (scratch arrays of the contact
+search). Integer codes are read from :mod:`xface_core.codes` and folded into compile-time
+constants here, so the engine and the typed results cannot drift apart.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from typing import Any, NamedTuple, TypeVar, cast
+
+import numpy as np
+import numpy.typing as npt
+from numba import njit
+
+from xface_core.codes import EventKind, Outcome, Phase, Reason, SlipState
+from xface_core.physics import Physics
+
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.int64]
+
+_F = TypeVar("_F", bound=Callable[..., Any])
+
+
+def njit_no_refcount(fn: _F) -> _F:
+    """Compile a kernel without numba's reference counting (NRT), cached, GIL released.
+
+    With NRT every call counts a reference, an atomic add and subtract, for every array it
+    is passed and every array it reads out of a record; over the engine's many small stage
+    calls that bookkeeping made the split engine 1.3x slower than the monolithic kernel, and
+    without it the engine runs in about half the old kernel's time (``scripts/
+    bench_side_by_side.py``). The price: such a kernel, and every kernel it calls, must not
+    allocate (no np.empty, no slice copies) and must not return arrays (the caller would
+    release a reference it never got). Kernels that allocate keep ``@njit(cache=True,
+    nogil=True)``; numba compiles their callees with NRT as their own flags say.
+    """
+    flags: dict[str, Any] = {"cache": True, "nogil": True, "_nrt": False}
+    return cast(_F, njit(**flags)(fn))
+
+
+# ---- codes as plain ints (numba folds module globals into constants) ---------------------
+UNDECIDED = -1  # the run's outcome while it is still going
+O_INVALID = int(Outcome.INVALID_INPUT)
+O_OUT_OF_REACH = int(Outcome.OUT_OF_REACH)
+O_NO_CONTACT = int(Outcome.NO_CONTACT)
+O_SEATED = int(Outcome.SEATED)
+O_BAD_MATE = int(Outcome.BAD_MATE)
+O_PASSED = int(Outcome.PASSED)
+O_UNRESOLVED = int(Outcome.UNRESOLVED)
+
+R_SEATED = int(Reason.SEATED)
+R_JAMMED = int(Reason.JAMMED)
+R_BELOW_SEAT = int(Reason.BELOW_SEAT)
+R_PASSED = int(Reason.PASSED)
+R_NO_CONTACT = int(Reason.NO_CONTACT)
+R_SPUN = int(Reason.SPUN)
+R_SINGULAR = int(Reason.SINGULAR)
+R_STEP_LIMIT = int(Reason.STEP_LIMIT)
+R_EVENT_LIMIT = int(Reason.EVENT_LIMIT)
+R_OVERLAP = int(Reason.OVERLAP)
+R_OUT_OF_REACH = int(Reason.OUT_OF_REACH)
+R_NONFINITE = int(Reason.NONFINITE)
+R_FRICTION_LOCK = int(Reason.FRICTION_LOCK)
+
+P_APPROACH = int(Phase.APPROACH)
+P_ALIGN = int(Phase.ALIGN)
+P_SLIDE = int(Phase.SLIDE)
+P_END = int(Phase.END)
+
+E_NONE = int(EventKind.NONE)
+E_CONTACT = int(EventKind.CONTACT)
+E_RELEASE = int(EventKind.RELEASE)
+E_OFF_EDGE = int(EventKind.OFF_EDGE)
+E_BELOW_SEAT = int(EventKind.BELOW_SEAT)
+E_SPUN = int(EventKind.SPUN)
+E_TURN = int(EventKind.TURN)
+E_SLIP = int(EventKind.SLIP)
+
+#: Friction state of an active contact (``Work.fric[1 + k]``), stored as a float.
+FREE = float(SlipState.FREE)
+STICK = float(SlipState.STICK)
+
+# ---- geometric and numerical constants of the engine -------------------------------------
+TINY = 1e-300
+ALIGN_TOL = 1e-9  # rad: |phi_B - phi_M| below which a sample is labelled SLIDE
+U_TOL = 1e-9  # edge-parameter slack of "inside the edge's span"
+U_CORNER = 1e-6  # edge-parameter slack within which a vertex meets an edge's end corner
+CUT_DEPTH = 1e-7  # D: deeper than this, a jump to a fold cut into a contact
+MAX_TURN = 0.02  # rad per accepted step
+MAX_CAND = 16  # touching pairs considered at once
+MAX_EXCLUDED = 8  # pairs kept out of the touching set at one point of the path
+FOLD_RISE = 1e-6  # D: a located turn's fold must lie this close to the turn's height
+
+
+class Model(NamedTuple):
+    """What the engine knows of a design (units of D); immutable."""
+
+    pairs: FloatArray
+    """(n_pairs, 10) vertex-edge pair table (columns: :mod:`xface_core.contact`)."""
+    base_edges: FloatArray
+    """(n, 5) base edges: x0, y0, x1, y1, layer (body frame)."""
+    moving_edges: FloatArray
+    """(n, 5) moving edges: x0, y0, x1, y1, layer (body frame)."""
+    mated_distance: float
+    """Pivot-to-pivot distance L when seated (D)."""
+
+
+class Options(NamedTuple):
+    """Tolerances, budgets and physics of a run; immutable (see :class:`SolverSettings`)."""
+
+    rtol: float
+    atol: float
+    event_tol: float
+    touch_tol: float
+    seat_tol: float
+    max_step: float
+    first_step: float
+    max_steps: int
+    max_events: int
+    jam_speed: float
+    winv_b: float
+    """Inverse rotational damping of the base relative to the moving part (0: base fixed)."""
+    winv_m: float
+    sqrt_winv_b: float
+    sqrt_winv_m: float
+    friction: float
+    """Coulomb coefficient at every contact."""
+
+
+def make_options(physics: Physics) -> Options:
+    """The engine's options for a validated :class:`~xface_core.physics.Physics`."""
+    s = physics.settings
+    winv_b = 0.0 if math.isinf(physics.damping_ratio) else 1.0 / physics.damping_ratio
+    winv_m = 1.0
+    return Options(
+        rtol=float(s.rtol),
+        atol=float(s.atol),
+        event_tol=float(s.event_tol),
+        touch_tol=float(s.touch_tol),
+        seat_tol=float(s.seat_tol),
+        max_step=float(s.max_step),
+        first_step=float(s.first_step),
+        max_steps=int(s.max_steps),
+        max_events=int(s.max_events),
+        jam_speed=float(s.jam_speed),
+        winv_b=winv_b,
+        winv_m=winv_m,
+        sqrt_winv_b=math.sqrt(winv_b),
+        sqrt_winv_m=math.sqrt(winv_m),
+        friction=float(physics.friction),
+    )
+
+
+#: One run's state and counters; a (n,) array of it is ``simulate_many``'s output.
+RUN_DTYPE = np.dtype(
+    [
+        ("outcome", np.int64),  # Outcome, or UNDECIDED while running
+        ("reason", np.int64),  # Reason
+        ("phi_b", np.float64),  # base angle (rad)
+        ("phi_m", np.float64),  # moving angle (rad)
+        ("y_m", np.float64),  # moving pivot height (D)
+        ("steps", np.int64),  # accepted integration steps
+        ("events", np.int64),  # located events
+        ("contact_changes", np.int64),  # changes of the active-set size
+        ("rejected_steps", np.int64),  # steps rejected by the error control
+        ("n_samples", np.int64),  # path samples recorded (may exceed the buffer)
+        ("x0", np.float64),  # lateral offset of the moving pivot (D), fixed
+        ("y_floor", np.float64),  # seat height less the seat tolerance (D)
+        ("h", np.float64),  # next trial step (D of descent)
+        ("n_active", np.int64),  # active contacts (Work.act[:n_active])
+        ("n_excluded", np.int64),  # pairs kept out of the touching set (Work.exclude)
+        ("had_contact", np.bool_),  # touched at least once
+    ]
+)
+
+
+class Work(NamedTuple):
+    """Scratch arrays of one run (the contact search's per-pair values and the active set)."""
+
+    ev: FloatArray
+    """(n_pairs, 6) per pair: gap, edge parameter, dg/dphi_B, dg/dphi_M, dg/dy_M, du/dd."""
+    g_prev: FloatArray
+    """Gap of every pair at the start of the trial step."""
+    u_prev: FloatArray
+    """Edge parameter of every pair at the start of the trial step."""
+    g_next: FloatArray
+    """Gap of every pair at the end of the trial step."""
+    u_next: FloatArray
+    thr: FloatArray
+    """Per pair: the gap at which it counts as a new contact in this interval."""
+    cand: IntArray
+    """Touching pairs (first n)."""
+    exclude: IntArray
+    """Pairs released or slid off at the current point, kept out until the path progresses
+    (so a corner touching several features cannot cycle)."""
+    act: IntArray
+    """Active contacts (first ``n_active``; 4 slots, -1 padded)."""
+    fric: FloatArray
+    """fric[0]: Coulomb coefficient; fric[1 + k]: friction state of active contact k."""
+
+
+@njit(cache=True, nogil=True)
+def new_work(model: Model, opts: Options) -> Work:
+    """Fresh scratch arrays for one run."""
+    n = model.pairs.shape[0]
+    fric = np.zeros(3)
+    fric[0] = opts.friction
+    return Work(
+        np.empty((n, 6)),
+        np.empty(n),
+        np.empty(n),
+        np.empty(n),
+        np.empty(n),
+        np.zeros(n),
+        np.empty(MAX_CAND, dtype=np.int64),
+        np.full(MAX_EXCLUDED, -1, dtype=np.int64),
+        np.full(4, -1, dtype=np.int64),
+        fric,
+    )

@@ -1,0 +1,159 @@
+"""Which event comes first in an accepted trial step: the scan over every event source.
+
+Sources, in the order they are checked (the earliest wins, ties to the first found): the
+active contacts (release, or the path turning back; leaving the edge), their friction states,
+new contacts among the other pairs, the seat height and a part spinning past +-pi.
+"""
+
+from __future__ import annotations
+
+import math
+
+from .events import NO_EVENT, Event, Segment, Step, earlier, locate, segment_velocity, step_to
+from .motion import slip_margin
+from .pairs import eval_pair, pair_at
+from .records import (
+    E_BELOW_SEAT,
+    E_CONTACT,
+    E_NONE,
+    E_OFF_EDGE,
+    E_RELEASE,
+    E_SLIP,
+    E_SPUN,
+    E_TURN,
+    FREE,
+    U_CORNER,
+    U_TOL,
+    Options,
+    Work,
+    njit_no_refcount,
+)
+
+
+@njit_no_refcount
+def _active_events(
+    opts: Options, seg: Segment, step: Step, nb: float, nm: float, best: Event
+) -> Event:
+    """An active contact lets go (its force changes sign), the path turns back (the force
+    changes sign through a pole), or its vertex leaves the edge."""
+    y1 = step.y_m - step.h
+    tol = opts.event_tol
+    _, _, l1, l2 = segment_velocity(seg, nb, nm, y1)
+    for k in range(seg.n_active):
+        pair = seg.act[k]
+        lam = l1 if k == 0 else l2
+        if lam < 0.0:
+            lo, hk = locate(seg, step, tol, E_RELEASE, pair, k, 0.0)
+            kind = E_RELEASE
+            pbk, pmk, _, _, _ = step_to(seg, step, lo)
+            _, _, m1, m2 = segment_velocity(seg, pbk, pmk, step.y_m - lo)
+            _, _, s1, s2 = segment_velocity(seg, step.phi_b, step.phi_m, step.y_m)
+            if abs(m1 if k == 0 else m2) > 1e-6 * max(1.0, abs(s1 if k == 0 else s2)):
+                # lambda changed sign through a pole, not through zero: the contact path
+                # turns back here and cannot descend further.
+                kind = E_TURN
+                hk = lo
+            best = earlier(Event(kind, pair, hk), best)
+        _, u, _, _, _, _, _, _, _ = pair_at(seg.pairs, pair, nb, nm, seg.x0, y1)
+        if u < -U_TOL or u > 1.0 + U_TOL:
+            _, hk = locate(seg, step, tol, E_OFF_EDGE, pair, k, 0.0)
+            best = earlier(Event(E_OFF_EDGE, pair, hk), best)
+    return best
+
+
+@njit_no_refcount
+def _slip_events(
+    opts: Options, seg: Segment, step: Step, nb: float, nm: float, best: Event
+) -> Event:
+    """A sliding contact stops or reverses, or a stuck one starts to slide."""
+    y1 = step.y_m - step.h
+    for k in range(seg.n_active):
+        if seg.fric[1 + k] == FREE:
+            continue
+        margin = slip_margin(
+            seg.pairs, seg.act, seg.n_active, k, nb, nm, seg.x0, y1, seg.sqrt_winv_b,
+            seg.sqrt_winv_m, seg.fric,
+        )  # fmt: skip
+        if margin < 0.0:
+            _, hk = locate(seg, step, opts.event_tol, E_SLIP, seg.act[k], k, 0.0)
+            best = earlier(Event(E_SLIP, seg.act[k], hk), best)
+    return best
+
+
+@njit_no_refcount
+def _contact_events(
+    opts: Options, seg: Segment, step: Step, work: Work, nb: float, nm: float, best: Event
+) -> Event:
+    """New contacts: an inactive pair's gap crosses its threshold inside the edge's span.
+    Also fills every pair's gap and edge parameter at the step's end (``work.g_next``)."""
+    y1 = step.y_m - step.h
+    # Arrays taken out of the records once: numba counts references on every attribute read.
+    thr, g_prev, u_prev = work.thr, work.g_prev, work.u_prev
+    g_next, u_next = work.g_next, work.u_next
+    pairs, act, n_act, x0 = seg.pairs, seg.act, seg.n_active, seg.x0
+    tol = opts.event_tol
+    cb1, sb1, cm1, sm1 = math.cos(nb), math.sin(nb), math.cos(nm), math.sin(nm)
+    # The states at the earliest event so far and two event widths before it, computed once
+    # per candidate event and shared by every pair checked against it.
+    at_h = -1.0
+    at_b, at_m = step.phi_b, step.phi_m
+    early_h = -1.0
+    early_b, early_m = step.phi_b, step.phi_m
+    for i in range(pairs.shape[0]):
+        g1, u1, _, _, _, _, _, _, _ = eval_pair(pairs[i], cb1, sb1, cm1, sm1, x0, y1)
+        g_next[i] = g1
+        u_next[i] = u1
+        if (n_act > 0 and act[0] == i) or (n_act > 1 and act[1] == i):
+            continue
+        if g1 > thr[i] or g_prev[i] <= thr[i]:
+            continue
+        # Where along the edge does the vertex cross its line? (Linear estimate; the exact
+        # check follows the root finding.) Far outside the span: not a contact.
+        u_est = u_prev[i] + (u1 - u_prev[i]) * (g_prev[i] - thr[i]) / (g_prev[i] - g1)
+        if u_est < -0.25 or u_est > 1.25:
+            continue
+        # Not crossed yet at the earliest event found so far: it cannot come first. Crossed
+        # within two event widths before it: the same moment (contacts closing together,
+        # as at a seat); the next interval's touching scan picks it up without a search of
+        # its own. (Several contacts close together at a seat; this spares their searches.)
+        if best.kind != E_NONE:
+            if at_h != best.h:
+                at_b, at_m, _, _, _ = step_to(seg, step, best.h)
+                at_h = best.h
+            g, _, _, _, _, _, _, _, _ = pair_at(pairs, i, at_b, at_m, x0, step.y_m - at_h)
+            if g > thr[i]:
+                continue
+            t_early = max(best.h - 2.0 * tol, 0.0)
+            if early_h != best.h:
+                early_b, early_m, _, _, _ = step_to(seg, step, t_early)
+                early_h = best.h
+            g, _, _, _, _, _, _, _, _ = pair_at(pairs, i, early_b, early_m, x0, step.y_m - t_early)
+            if g > thr[i]:
+                continue
+        _, hk = locate(seg, step, tol, E_CONTACT, i, 0, thr[i])
+        if best.kind != E_NONE and hk >= best.h:
+            continue
+        pbk, pmk, _, _, _ = step_to(seg, step, hk)
+        _, uk, _, _, _, _, _, _, _ = pair_at(pairs, i, pbk, pmk, x0, step.y_m - hk)
+        # A vertex crossing a line just beyond the edge's end is meeting the corner there
+        # (e.g. a tip reaching the bottom of a notch): that is a contact too.
+        if -U_CORNER <= uk <= 1.0 + U_CORNER:
+            best = Event(E_CONTACT, i, hk)
+    return best
+
+
+@njit_no_refcount
+def find_event(opts: Options, seg: Segment, step: Step, work: Work, nb: float, nm: float) -> Event:
+    """The earliest event in the trial step that ends at ``(nb, nm)``, or ``NO_EVENT``."""
+    best = _active_events(opts, seg, step, nb, nm, NO_EVENT)
+    if opts.friction > 0.0:
+        best = _slip_events(opts, seg, step, nb, nm, best)
+    best = _contact_events(opts, seg, step, work, nb, nm, best)
+    y1 = step.y_m - step.h
+    if y1 < seg.y_floor:
+        # y_M falls linearly with the descent: the crossing is known exactly.
+        best = earlier(Event(E_BELOW_SEAT, -1, step.y_m - seg.y_floor), best)
+    if max(abs(nb), abs(nm)) > math.pi:
+        _, hk = locate(seg, step, opts.event_tol, E_SPUN, -1, 0, 0.0)
+        best = earlier(Event(E_SPUN, -1, hk), best)
+    return best

@@ -1,0 +1,243 @@
+"""A smooth segment: the active set held fixed, integrated step by step to its first event.
+
+``follow_contacts`` is the stage loop of one segment: begin it on the contacts, try a step,
+look for events in it, accept it or advance to the event and act on it.
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+from .ends import Run, end_at_rest, end_run, record
+from .events import Event, Segment, Step, step_to
+from .folds import cuts_in, solve_fold
+from .integrate import project
+from .pairs import eval_all_pairs
+from .records import (
+    ALIGN_TOL,
+    E_BELOW_SEAT,
+    E_CONTACT,
+    E_NONE,
+    E_OFF_EDGE,
+    E_RELEASE,
+    E_SPUN,
+    E_TURN,
+    FOLD_RISE,
+    MAX_TURN,
+    O_BAD_MATE,
+    O_UNRESOLVED,
+    P_ALIGN,
+    P_SLIDE,
+    R_BELOW_SEAT,
+    R_SINGULAR,
+    R_SPUN,
+    R_STEP_LIMIT,
+    TINY,
+    UNDECIDED,
+    FloatArray,
+    IntArray,
+    Model,
+    Options,
+    Work,
+    njit_no_refcount,
+)
+from .scan import find_event
+
+
+@njit_no_refcount
+def _phase(run: Run) -> int:
+    return P_SLIDE if abs(run.phi_b - run.phi_m) <= ALIGN_TOL else P_ALIGN
+
+
+@njit(cache=True, nogil=True)  # returns arrays (in the Segment): needs NRT
+def begin_segment(
+    model: Model, opts: Options, run: Run, work: Work, path: FloatArray, path_pairs: IntArray
+) -> Segment:
+    """Start exactly on the active constraints and note every pair's gap and threshold.
+
+    Events leave gaps of up to the touching tolerance; projecting first makes the step
+    error measure only the step's own drift. A pair touching now counts as a new contact
+    only once it closes past its current gap (less the touching tolerance).
+    """
+    act, n = work.act, run.n_active
+    qb, qm = project(
+        model.pairs, act, n, run.phi_b, run.phi_m, run.x0, run.y_m, opts.winv_b, opts.winv_m
+    )
+    if max(abs(qb - run.phi_b), abs(qm - run.phi_m)) < 1e-6:
+        run.phi_b, run.phi_m = qb, qm
+    eval_all_pairs(model.pairs, run.phi_b, run.phi_m, run.x0, run.y_m, work.ev)
+    tt = opts.touch_tol
+    ev, thr, g_prev, u_prev = work.ev, work.thr, work.g_prev, work.u_prev
+    for i in range(ev.shape[0]):
+        g = ev[i, 0]
+        thr[i] = min(g, 0.0) - tt if -4.0 * tt <= g <= tt else 0.0
+        g_prev[i] = g
+        u_prev[i] = ev[i, 1]
+    record(run, path, path_pairs, _phase(run), act, n)
+    return Segment(
+        model.pairs, act, n, work.fric, run.x0, run.y_floor, opts.sqrt_winv_b, opts.sqrt_winv_m,
+        opts.winv_b, opts.winv_m,
+    )  # fmt: skip
+
+
+@njit_no_refcount
+def trial_step(opts: Options, seg: Segment, step: Step) -> tuple[float, float, float, float, bool]:
+    """Integrate the trial step: ``(phi_b, phi_m, err, turn, ok)`` with the error relative
+    to the tolerances (accept at <= 1) and the largest rotation in the step (rad)."""
+    nb, nm, eb, em, ok = step_to(seg, step, step.h)
+    if not ok:
+        return nb, nm, math.inf, 0.0, False
+    sc_b = opts.atol + opts.rtol * max(abs(step.phi_b), abs(nb))
+    sc_m = opts.atol + opts.rtol * max(abs(step.phi_m), abs(nm))
+    err = max(abs(eb) / sc_b, abs(em) / sc_m)
+    turn = max(abs(nb - step.phi_b), abs(nm - step.phi_m))
+    # Cap the rotation per step: near a turning point of the contact path the rate grows
+    # without bound and a long step could jump across thin features.
+    if turn > MAX_TURN or turn > opts.jam_speed * step.h:
+        return nb, nm, math.inf, turn, False
+    return nb, nm, err, turn, ok
+
+
+@njit(cache=True, nogil=True)  # allocates below: needs NRT
+def jump_to_fold(model: Model, run: Run, work: Work, located: bool) -> None:
+    """Move a two-contact run onto the fold of its path (where the pinned contacts reach
+    their lowest point), if the fold is near and the jump cuts into no clear pair.
+
+    Near means: after a *located* turn, within FOLD_RISE of the turn's height either side
+    (the fold is where the turn was found, to the locate's accuracy); after the step size
+    collapsed (the rate diverges ahead), anywhere below the current height (the run only
+    descends, and solve_fold itself accepts folds within 1e-3 D).
+    """
+    if run.n_active != 2:
+        return
+    fb, fm, fy, conv = solve_fold(model.pairs, work.act, run.phi_b, run.phi_m, run.x0, run.y_m)
+    near = abs(fy - run.y_m) < FOLD_RISE if located else fy <= run.y_m
+    if conv and near and not cuts_in(model.pairs, work.g_prev, work.thr, fb, fm, run.x0, fy):
+        run.phi_b, run.phi_m, run.y_m = fb, fm, fy
+
+
+@njit_no_refcount
+def accept_step(
+    run: Run, work: Work, nb: float, nm: float, err: float, turn: float,
+    path: FloatArray, path_pairs: IntArray,
+) -> None:  # fmt: skip
+    """No event in the step: take it, and choose the next step's length."""
+    h = run.h
+    run.n_excluded = 0
+    g_prev, u_prev, g_next, u_next = work.g_prev, work.u_prev, work.g_next, work.u_next
+    for i in range(g_prev.shape[0]):
+        g_prev[i] = g_next[i]
+        u_prev[i] = u_next[i]
+    run.steps += 1
+    run.phi_b, run.phi_m, run.y_m = nb, nm, run.y_m - h
+    record(run, path, path_pairs, _phase(run), work.act, run.n_active)
+    fac = 5.0 if err == 0.0 else min(5.0, max(0.2, 0.9 * err**-0.2))
+    # Keep the next step inside the per-step turn cap instead of having it rejected.
+    run.h = min(h * fac, 0.9 * MAX_TURN * h / max(turn, TINY))
+
+
+@njit(cache=True, nogil=True)  # allocates below: needs NRT
+def advance_to_event(
+    model: Model, opts: Options, run: Run, work: Work, seg: Segment, step: Step, ev: Event
+) -> int:
+    """Move the run to the event; returns its kind (a step to it that crosses a fold of the
+    path becomes a TURN, stopped at the last good state)."""
+    kind = ev.kind
+    if kind == E_TURN:
+        # The rate diverges at a fold of the contact path: integrating up to it is
+        # ill-conditioned, so solve the active constraints there directly (Newton from the
+        # last good state); the state is then exact to about sqrt(event_tol).
+        y_ev = step.y_m - ev.h
+        tb, tm = run.phi_b, run.phi_m
+        for _ in range(20):
+            tb, tm = project(
+                model.pairs, work.act, run.n_active, tb, tm, run.x0, y_ev, opts.winv_b,
+                opts.winv_m,
+            )  # fmt: skip
+        if not cuts_in(model.pairs, work.g_prev, work.thr, tb, tm, run.x0, y_ev):
+            run.phi_b, run.phi_m, run.y_m = tb, tm, y_ev
+        jump_to_fold(model, run, work, True)
+        run.steps += 1
+    elif ev.h > 0.0:
+        eb, em, _, _, ok = step_to(seg, step, ev.h)
+        if ok and max(abs(eb - run.phi_b), abs(em - run.phi_m)) <= MAX_TURN:
+            run.phi_b, run.phi_m, run.y_m = eb, em, step.y_m - ev.h
+            run.steps += 1
+        else:
+            # The step to the event crosses a fold of the path (the rate blows up on the
+            # way): stop at the last good state as at a turning point.
+            kind = E_TURN
+            jump_to_fold(model, run, work, True)
+    return kind
+
+
+@njit(cache=True, nogil=True)  # allocates below: needs NRT
+def handle_event(
+    model: Model, opts: Options, run: Run, work: Work, seg: Segment, step: Step, ev: Event,
+    path: FloatArray, path_pairs: IntArray,
+) -> None:  # fmt: skip
+    """Advance to the event and act on it: end the run, or update the excluded pairs."""
+    kind = advance_to_event(model, opts, run, work, seg, step, ev)
+    run.events += 1
+    record(run, path, path_pairs, _phase(run), work.act, run.n_active)
+    L, tol = model.mated_distance, opts.seat_tol
+    if kind == E_BELOW_SEAT:
+        end_at_rest(run, path, path_pairs, work.act, L, tol, R_BELOW_SEAT, False)
+        return
+    if kind == E_TURN:
+        end_at_rest(run, path, path_pairs, work.act, L, tol, R_SINGULAR, False)
+        return
+    if kind == E_SPUN:
+        end_run(run, path, path_pairs, work.act, O_BAD_MATE, R_SPUN, False)
+        return
+    if ev.h > 1e-7:
+        run.n_excluded = 0
+    exclude, n_ex = work.exclude, run.n_excluded
+    if kind == E_RELEASE or kind == E_OFF_EDGE:  # noqa: SIM109 (numba)
+        if n_ex < exclude.shape[0]:
+            exclude[n_ex] = ev.pair
+            run.n_excluded = n_ex + 1
+    elif kind == E_CONTACT:
+        for k in range(n_ex):
+            if exclude[k] == ev.pair:
+                exclude[k] = exclude[n_ex - 1]
+                run.n_excluded = n_ex - 1
+                break
+    run.h = max(run.h, 1e3 * opts.event_tol)
+
+
+@njit(cache=True, nogil=True)  # allocates below: needs NRT
+def follow_contacts(
+    model: Model, opts: Options, run: Run, work: Work, path: FloatArray, path_pairs: IntArray
+) -> None:
+    """Integrate with the active set fixed until the next event, and handle it."""
+    seg = begin_segment(model, opts, run, work, path, path_pairs)
+    while run.outcome == UNDECIDED:
+        if run.steps >= opts.max_steps:
+            end_run(run, path, path_pairs, work.act, O_UNRESOLVED, R_STEP_LIMIT, True)
+            return
+        run.h = min(run.h, opts.max_step)
+        step = Step(run.phi_b, run.phi_m, run.y_m, run.h)
+        nb, nm, err, turn, ok = trial_step(opts, seg, step)
+        if err > 1.0:
+            run.rejected_steps += 1
+            if step.h <= opts.event_tol:
+                # The rate diverges: the contacts reach a turning point (a contact normal
+                # through both pivots). The seat itself is such a point.
+                jump_to_fold(model, run, work, False)
+                end_at_rest(
+                    run, path, path_pairs, work.act, model.mated_distance, opts.seat_tol,
+                    R_SINGULAR, True,
+                )  # fmt: skip
+                return
+            h = step.h
+            run.h = max(h * max(0.2, 0.9 * err**-0.2), 0.5 * opts.event_tol) if ok else h * 0.25
+            continue
+        ev = find_event(opts, seg, step, work, nb, nm)
+        if ev.kind == E_NONE:
+            accept_step(run, work, nb, nm, err, turn, path, path_pairs)
+            continue
+        handle_event(model, opts, run, work, seg, step, ev, path, path_pairs)
+        return

@@ -1,0 +1,251 @@
+"""The typed bridge to the compiled engine: one pose with its path, or many without.
+
+:func:`simulate_pose` runs one pose and returns a :class:`Prediction` (no margins: those
+build on this module, in :mod:`xface_core.margins`); :func:`predict_batch` runs many poses of
+one design. Lengths are in the design's unit (``design.width`` is D), angles in radians; the
+engine works in units of D, so outcomes do not depend on the unit.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from . import _engine
+from .codes import Outcome, Reason
+from .contact import pair_table
+from .errors import InputError
+from .geometry import FaceDesign
+from .physics import DEFAULT_SETTINGS, Physics, SolverSettings
+from .result import AlignmentPath, Counters, Prediction
+
+__all__ = [
+    "BatchResult",
+    "engine_model",
+    "predict_batch",
+    "simulate_pose",
+    "start_height",
+    "start_heights",
+]
+
+FloatArray = npt.NDArray[np.float64]
+
+#: Smallest batch share worth a thread of its own.
+MIN_POSES_PER_THREAD = 64
+
+#: Path samples allocated up front; longer paths trigger one re-run with an exact buffer.
+PATH_BUFFER = 256
+
+#: Largest accepted |x0| and |y_start|, in widths D: beyond this the geometry is absurd
+#: and double precision cannot resolve the contact.
+MAX_OFFSET = 1.0e6
+
+#: Start clearance above the lowest non-overlapping height (D).
+START_CLEARANCE = 0.01
+
+#: Threads a batch uses by default (asked once: the answer does not change while we run).
+DEFAULT_THREADS = os.cpu_count() or 1
+
+
+def engine_model(design: FaceDesign) -> _engine.Model:
+    """The engine's immutable model of a design (cached with its pair table)."""
+    return pair_table(design).model
+
+
+def start_heights(design: FaceDesign, theta0: npt.ArrayLike) -> FloatArray:
+    """Lowest moving-pivot heights (units of D) at which the parts are clear of each other
+    for any x0, plus a small clearance: the default start of the approach, per angle
+    (vectorised; non-finite angles give NaN)."""
+    th = np.asarray(theta0, dtype=np.float64)
+    finite = np.isfinite(th)
+    th = np.where(finite, th, 0.0)
+    table = pair_table(design)
+    v = table.moving_vertices
+    # A moving body point v sits at y_M - (sin th v_x + cos th v_y).
+    reach = (np.sin(th)[..., None] * v[:, 0] + np.cos(th)[..., None] * v[:, 1]).max(axis=-1)
+    return np.asarray(
+        np.where(finite, table.base_top + reach + START_CLEARANCE, np.nan), dtype=np.float64
+    )
+
+
+def start_height(design: FaceDesign, theta0: float) -> float:
+    """:func:`start_heights` for one angle (compiled: no numpy overhead per call)."""
+    table = pair_table(design)
+    return table.base_top + _engine.lowest_reach(table.moving_vertices, float(theta0)) + 0.01
+
+
+def check_pose(design: FaceDesign, x0: float, theta0: float, y_start: float | None) -> None:
+    """Raise :class:`InputError` for a pose the engine cannot take (non-finite, absurd)."""
+    w = design.width
+    for name, value in (("x0", x0), ("theta0", theta0), ("y_start", y_start)):
+        if value is not None and not math.isfinite(value):
+            raise InputError(f"{name} must be finite, got {value!r}")
+    if abs(x0) > MAX_OFFSET * w or (y_start is not None and abs(y_start) > MAX_OFFSET * w):
+        raise InputError(f"|x0| and |y_start| must be <= {MAX_OFFSET:g} widths")
+    if abs(theta0) > 2.0 * math.pi:
+        raise InputError(f"|theta0| must be <= 2 pi, got {theta0!r}")
+
+
+def simulate_pose(
+    design: FaceDesign,
+    x0: float,
+    theta0: float,
+    physics: Physics,
+    *,
+    y_start: float | None = None,
+    path: bool = True,
+) -> Prediction:
+    """One validated pose through the engine (see :func:`xface_core.predict`)."""
+    check_pose(design, x0, theta0, y_start)
+    w = design.width
+    x0_d = x0 / w
+    y0_d = start_height(design, theta0) if y_start is None else y_start / w
+    model = engine_model(design)
+    opts = _engine.make_options(physics)
+    run = np.zeros(1, dtype=_engine.RUN_DTYPE)
+    n_buf = PATH_BUFFER if path else 1
+    while True:
+        buf = np.empty((n_buf, 4))
+        pairs = np.empty((n_buf, 4), dtype=np.int64)
+        _engine.simulate_one(model, opts, x0_d, float(theta0), y0_d, run, buf, pairs)
+        # A path longer than the buffer: run again with room for all of it (the engine is
+        # deterministic, so the second run is the same run).
+        if not path or run["n_samples"][0] <= n_buf:
+            break
+        n_buf = int(run["n_samples"][0])
+    r = run[0]
+    return Prediction(
+        design=design,
+        x0=float(x0),
+        theta0=float(theta0),
+        y_start=y0_d * w,
+        outcome=Outcome(int(r["outcome"])),
+        reason=Reason(int(r["reason"])).text,
+        phi_b=float(r["phi_b"]),
+        phi_m=float(r["phi_m"]),
+        pivot_m=(float(x0), float(r["y_m"]) * w),
+        counters=Counters(
+            steps=int(r["steps"]),
+            events=int(r["events"]),
+            contact_changes=int(r["contact_changes"]),
+            rejected_steps=int(r["rejected_steps"]),
+        ),
+        path=_alignment_path(buf, pairs, min(int(r["n_samples"]), n_buf), x0, y0_d, w)
+        if path
+        else None,
+    )
+
+
+def _alignment_path(
+    buf: FloatArray,
+    pairs: npt.NDArray[np.int64],
+    n: int,
+    x0: float,
+    y0_d: float,
+    w: float,
+) -> AlignmentPath:
+    return AlignmentPath(
+        descent=(y0_d - buf[:n, 0]) * w,
+        phi_b=buf[:n, 1].copy(),
+        phi_m=buf[:n, 2].copy(),
+        pivot_m=np.column_stack((np.full(n, x0), buf[:n, 0] * w)),
+        phase=buf[:n, 3].astype(np.int64),
+        contact_pairs=pairs[:n].copy(),
+    )
+
+
+@dataclass(frozen=True)
+class BatchResult:
+    """Outcomes and final states of many poses of one design (arrays of the input's shape)."""
+
+    outcome: npt.NDArray[np.int8]
+    """Outcome codes (values of :class:`Outcome`)."""
+    phi_b: FloatArray
+    phi_m: FloatArray
+    steps: npt.NDArray[np.int64]
+    events: npt.NDArray[np.int64]
+
+
+def predict_batch(
+    design: FaceDesign,
+    x0: npt.ArrayLike,
+    theta0: npt.ArrayLike,
+    *,
+    physics: Physics | None = None,
+    damping_ratio: float | None = None,
+    friction: float | None = None,
+    settings: SolverSettings | None = None,
+    threads: int | None = None,
+) -> BatchResult:
+    """Predict many poses of one design (broadcast like numpy; no paths).
+
+    ``physics`` (or, equivalently, the loose ``damping_ratio``, ``friction`` and
+    ``settings``) as for :func:`xface_core.predict`. ``threads`` splits a large batch over
+    threads (default: one per core); the compiled engine releases the GIL, so they run in
+    parallel, and every pose's result is the same bit for bit whatever the split.
+
+    Non-finite or absurd entries give ``INVALID_INPUT`` in their cell instead of raising,
+    like shapely's vectorised functions return NaN for missing input.
+
+    Examples
+    --------
+    >>> from xface_core import v_face
+    >>> r = predict_batch(v_face(0.5, 1.0), [0.0, 0.2, float("nan")], 0.1)
+    >>> [Outcome(c).name for c in r.outcome]
+    ['SEATED', 'SEATED', 'INVALID_INPUT']
+    """
+    phys = Physics.resolve(
+        physics, damping_ratio=damping_ratio, friction=friction, settings=settings
+    )
+    xb, tb = np.broadcast_arrays(
+        np.asarray(x0, dtype=np.float64), np.asarray(theta0, dtype=np.float64)
+    )
+    runs = run_flat(design, (xb / design.width).ravel(), tb.ravel(), phys, threads)
+    shape = xb.shape
+    return BatchResult(
+        outcome=runs["outcome"].astype(np.int8).reshape(shape),
+        phi_b=runs["phi_b"].reshape(shape),
+        phi_m=runs["phi_m"].reshape(shape),
+        steps=runs["steps"].reshape(shape),
+        events=runs["events"].reshape(shape),
+    )
+
+
+def run_flat(
+    design: FaceDesign,
+    xs: FloatArray,
+    ts: FloatArray,
+    physics: Physics,
+    threads: int | None = None,
+) -> npt.NDArray[np.void]:
+    """The engine over flat arrays of x0 (units of D) and theta0: one ``RUN_DTYPE`` row each."""
+    ys = np.nan_to_num(start_heights(design, ts))
+    valid = (
+        np.isfinite(xs) & np.isfinite(ts) & (np.abs(xs) <= MAX_OFFSET) & (np.abs(ts) <= 2 * np.pi)
+    )
+    model = engine_model(design)
+    opts = _engine.make_options(physics)
+    n_threads = DEFAULT_THREADS if threads is None else max(1, threads)
+    n_threads = min(n_threads, max(1, len(xs) // MIN_POSES_PER_THREAD))
+    if n_threads == 1:
+        return _engine.simulate_many(model, opts, xs, ts, ys, valid)
+    # Interleaved chunks balance the load: hard poses cluster in parts of a map.
+    parts = [slice(k, None, n_threads) for k in range(n_threads)]
+    with ThreadPoolExecutor(n_threads) as pool:
+        results = list(
+            pool.map(
+                lambda p: _engine.simulate_many(model, opts, xs[p], ts[p], ys[p], valid[p]), parts
+            )
+        )
+    out = np.empty(len(xs), dtype=_engine.RUN_DTYPE)
+    for part, res in zip(parts, results, strict=True):
+        out[part] = res
+    return out
+
+
+__all__ += ["DEFAULT_SETTINGS", "MAX_OFFSET", "check_pose", "run_flat"]
