@@ -39,8 +39,10 @@ class Segment(NamedTuple):
     act: IntArray
     """Active contacts (first ``n_active``)."""
     n_active: int
-    fric: FloatArray
-    """Coulomb coefficient and friction states (see :class:`~.records.Work`)."""
+    mu: float
+    """Coulomb coefficient at every contact."""
+    slip: IntArray
+    """Friction states of the active contacts (see :class:`~.records.Work`)."""
     x0: float
     y_floor: float
     """Seat height less the seat tolerance: below it a seat is out of reach."""
@@ -96,7 +98,8 @@ def step_to(seg: Segment, step: Step, t: float) -> tuple[float, float, float, fl
         seg.sqrt_winv_m,
         seg.winv_b,
         seg.winv_m,
-        seg.fric,
+        seg.mu,
+        seg.slip,
     )
 
 
@@ -107,7 +110,7 @@ def segment_velocity(
     """Rate and contact forces at a state of the segment (see :func:`~.motion.velocity`)."""
     return velocity(
         seg.pairs, seg.act, seg.n_active, pb, pm, seg.x0, ym, seg.sqrt_winv_b, seg.sqrt_winv_m,
-        seg.fric,
+        seg.mu, seg.slip,
     )  # fmt: skip
 
 
@@ -135,7 +138,7 @@ def event_value(
     if kind == E_SLIP:
         return slip_margin(
             seg.pairs, seg.act, seg.n_active, slot, pb, pm, seg.x0, ym, seg.sqrt_winv_b,
-            seg.sqrt_winv_m, seg.fric,
+            seg.sqrt_winv_m, seg.mu, seg.slip,
         )  # fmt: skip
     # E_SPUN
     return math.pi - max(abs(pb), abs(pm))

@@ -89,12 +89,23 @@ def rk_step(
     sqm: float,
     winv_b: float,
     winv_m: float,
-    fric: FloatArray,
+    mu: float,
+    slip: IntArray,
 ) -> tuple[float, float, float, float, bool]:
     """One Dormand-Prince step of length h in descent; returns (pb, pm, err_b, err_m, ok)."""
-    k1b, k1m, _, _ = velocity(table, act, nact, pb, pm, x0, ym, sqb, sqm, fric)
+    k1b, k1m, _, _ = velocity(table, act, nact, pb, pm, x0, ym, sqb, sqm, mu, slip)
     k2b, k2m, _, _ = velocity(
-        table, act, nact, pb + h * A21 * k1b, pm + h * A21 * k1m, x0, ym - h / 5.0, sqb, sqm, fric
+        table,
+        act,
+        nact,
+        pb + h * A21 * k1b,
+        pm + h * A21 * k1m,
+        x0,
+        ym - h / 5.0,
+        sqb,
+        sqm,
+        mu,
+        slip,
     )
     k3b, k3m, _, _ = velocity(
         table,
@@ -106,7 +117,8 @@ def rk_step(
         ym - h * 0.3,
         sqb,
         sqm,
-        fric,
+        mu,
+        slip,
     )
     k4b, k4m, _, _ = velocity(
         table,
@@ -118,7 +130,8 @@ def rk_step(
         ym - h * 0.8,
         sqb,
         sqm,
-        fric,
+        mu,
+        slip,
     )
     k5b, k5m, _, _ = velocity(
         table,
@@ -130,7 +143,8 @@ def rk_step(
         ym - h * (8.0 / 9.0),
         sqb,
         sqm,
-        fric,
+        mu,
+        slip,
     )
     k6b, k6m, _, _ = velocity(
         table,
@@ -142,11 +156,12 @@ def rk_step(
         ym - h,
         sqb,
         sqm,
-        fric,
+        mu,
+        slip,
     )
     nb = pb + h * (B1 * k1b + B3 * k3b + B4 * k4b + B5 * k5b + B6 * k6b)
     nm = pm + h * (B1 * k1m + B3 * k3m + B4 * k4m + B5 * k5m + B6 * k6m)
-    k7b, k7m, _, _ = velocity(table, act, nact, nb, nm, x0, ym - h, sqb, sqm, fric)
+    k7b, k7m, _, _ = velocity(table, act, nact, nb, nm, x0, ym - h, sqb, sqm, mu, slip)
     eb = h * (E1 * k1b + E3 * k3b + E4 * k4b + E5 * k5b + E6 * k6b + E7 * k7b)
     em = h * (E1 * k1m + E3 * k3m + E4 * k4m + E5 * k5m + E6 * k6m + E7 * k7m)
     ok = math.isfinite(eb) and math.isfinite(em) and math.isfinite(nb) and math.isfinite(nm)

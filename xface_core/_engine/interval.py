@@ -98,10 +98,10 @@ def _hold_cut_contact(
     cut into. Hold the one cut deepest as well; returns ``(n_active, v_b, v_m)``."""
     pb, pm, x0, ym = run.phi_b, run.phi_m, run.x0, run.y_m
     sqb, sqm = opts.sqrt_winv_b, opts.sqrt_winv_m
-    act, ev, cand = work.act, work.ev, work.cand
-    if not friction_modes(model.pairs, act, 1, pb, pm, x0, ym, sqb, sqm, work.fric, v0b, v0m):
+    act, ev, cand, mu, slip = work.act, work.ev, work.cand, opts.friction, work.slip
+    if not friction_modes(model.pairs, act, 1, pb, pm, x0, ym, sqb, sqm, mu, slip, v0b, v0m):
         return 1, v0b, v0m
-    fb, fm, _, _ = velocity(model.pairs, act, 1, pb, pm, x0, ym, sqb, sqm, work.fric)
+    fb, fm, _, _ = velocity(model.pairs, act, 1, pb, pm, x0, ym, sqb, sqm, mu, slip)
     worst = 0.0
     for k in range(nc):
         j = cand[k]
@@ -113,7 +113,9 @@ def _hold_cut_contact(
             act[1] = j
     if worst > 0.0:
         # Two contacts fix the rate; the frictionless one is the same rate.
-        v0b, v0m, _, _ = velocity(model.pairs, act, 2, pb, pm, x0, ym, sqb, sqm, work.fric)
+        v0b, v0m, _, _ = velocity(
+            model.pairs, act, 2, pb, pm, x0, ym, sqb, sqm, opts.friction, work.slip
+        )
         return 2, v0b, v0m
     return 1, v0b, v0m
 
@@ -144,7 +146,19 @@ def begin_interval(
         n_new, v0b, v0m = _hold_cut_contact(model, opts, run, work, nc, v0b, v0m)
     if status == MOVES and n_new > 0 and opts.friction > 0.0:
         if not friction_modes(
-            model.pairs, work.act, n_new, pb, pm, x0, ym, sqb, sqm, work.fric, v0b, v0m
+            model.pairs,
+            work.act,
+            n_new,
+            pb,
+            pm,
+            x0,
+            ym,
+            sqb,
+            sqm,
+            opts.friction,
+            work.slip,
+            v0b,
+            v0m,
         ):
             # Friction locks the contact: no admissible slip state lets the parts descend.
             end_at_rest(run, path, path_pairs, work.act, L, opts.seat_tol, R_FRICTION_LOCK, False)

@@ -15,7 +15,18 @@ import numpy as np
 from numba import njit
 
 from .pairs import eval_pair, pair_at
-from .records import STICK, TINY, U_CORNER, U_TOL, FloatArray, IntArray, njit_no_refcount
+from .records import (
+    FREE,
+    SLIDE_NEGATIVE,
+    SLIDE_POSITIVE,
+    STICK,
+    TINY,
+    U_CORNER,
+    U_TOL,
+    FloatArray,
+    IntArray,
+    njit_no_refcount,
+)
 
 
 @njit_no_refcount
@@ -140,28 +151,28 @@ def velocity(
     ym: float,
     sqb: float,
     sqm: float,
-    fric: FloatArray,
+    mu: float,
+    slip: IntArray,
 ) -> tuple[float, float, float, float]:
     """Rate dq/ds with the active set held fixed; returns (v_b, v_m, lambda_0, x) where x is
     lambda_1 for two contacts and, for one stuck contact, its tangential force tau.
 
     Frictionless, the rate is the least-dissipation one.  With Coulomb friction mu =
-    fric[0], a sliding contact pushes along ``a - mu s c`` (s: the slip's sign, fric[1 + k]),
-    a stuck one (fric[1] = STICK) adds the slip constraint ``c . v = -gamma``.  Non-finite
+    ``mu``, a sliding contact pushes along ``a - mu s c`` (s: the slip's sign, ``slip[k]``),
+    a stuck one (``slip[0] == STICK``) adds the slip constraint ``c . v = -gamma``.  Non-finite
     rates signal a singular configuration (a contact normal through both pivots) or a
     friction lock.
     """
-    mu = fric[0]
     cb0, sb0, cm0, sm0 = math.cos(pb), math.sin(pb), math.cos(pm), math.sin(pm)
     _, _, ab1, am1, b1, _, _, _, _ = eval_pair(table[act[0]], cb0, sb0, cm0, sm0, x0, ym)
     ab1 *= sqb
     am1 *= sqm
     if nact == 1:
-        if mu > 0.0 and fric[1] != 0.0:
+        if mu > 0.0 and slip[0] != FREE:
             cb, cm, gam = tangent(table, act[0], pb, pm, x0, ym)
             cb *= sqb
             cm *= sqm
-            if fric[1] == STICK:
+            if slip[0] == STICK:
                 a11 = ab1 * ab1 + am1 * am1
                 a12 = ab1 * cb + am1 * cm
                 a22 = cb * cb + cm * cm
@@ -171,8 +182,8 @@ def velocity(
                 lam = (b1 * a22 + a12 * gam) / det
                 tau = (-a11 * gam - a12 * b1) / det
                 return (lam * ab1 + tau * cb) * sqb, (lam * am1 + tau * cm) * sqm, lam, tau
-            db = ab1 - mu * fric[1] * cb
-            dm = am1 - mu * fric[1] * cm
+            db = ab1 - mu * slip[0] * cb
+            dm = am1 - mu * slip[0] * cm
             den = ab1 * db + am1 * dm
             if den <= 1e-24:
                 return math.nan, math.nan, math.nan, 0.0
@@ -196,10 +207,10 @@ def velocity(
     if mu > 0.0:
         c1b, c1m, _ = tangent(table, act[0], pb, pm, x0, ym)
         c2b, c2m, _ = tangent(table, act[1], pb, pm, x0, ym)
-        d1b -= mu * fric[1] * c1b * sqb
-        d1m -= mu * fric[1] * c1m * sqm
-        d2b -= mu * fric[2] * c2b * sqb
-        d2m -= mu * fric[2] * c2m * sqm
+        d1b -= mu * slip[0] * c1b * sqb
+        d1m -= mu * slip[0] * c1m * sqm
+        d2b -= mu * slip[1] * c2b * sqb
+        d2m -= mu * slip[1] * c2m * sqm
     det2 = d1b * d2m - d1m * d2b
     if det2 == 0.0:
         return math.nan, math.nan, math.nan, math.nan
@@ -220,15 +231,16 @@ def slip_margin(
     ym: float,
     sqb: float,
     sqm: float,
-    fric: FloatArray,
+    mu: float,
+    slip: IntArray,
 ) -> float:
     """Positive while contact k keeps its friction state: a sliding contact keeps its slip
     direction, a stuck one keeps its tangential force inside the cone |tau| <= mu lambda."""
-    vb, vm, lam, x = velocity(table, act, nact, pb, pm, x0, ym, sqb, sqm, fric)
-    if fric[1 + k] == STICK:
-        return float(fric[0] * lam - abs(x))
+    vb, vm, lam, x = velocity(table, act, nact, pb, pm, x0, ym, sqb, sqm, mu, slip)
+    if slip[k] == STICK:
+        return float(mu * lam - abs(x))
     cb, cm, gam = tangent(table, act[k], pb, pm, x0, ym)
-    return float(fric[1 + k] * (cb * vb + cm * vm + gam))
+    return float(slip[k] * (cb * vb + cm * vm + gam))
 
 
 @njit_no_refcount
@@ -354,11 +366,12 @@ def friction_modes(
     ym: float,
     sqb: float,
     sqm: float,
-    fric: FloatArray,
+    mu: float,
+    slip: IntArray,
     v0b: float,
     v0m: float,
 ) -> bool:
-    """Choose each active contact's friction state (fric[1 + k]); False for a friction lock.
+    """Choose each active contact's friction state (``slip[k]``); False for a friction lock.
 
     The active set is the frictionless one (least dissipation); friction then sets the motion
     within it. One contact: slide in the direction the frictionless motion slips, else the
@@ -367,35 +380,38 @@ def friction_modes(
     consistent states; this order picks one deterministically. Two contacts fix the rate, so
     each slips the way that rate makes it slip.
     """
-    fric[1] = 0.0
-    fric[2] = 0.0
+    slip[0] = FREE
+    slip[1] = FREE
     if nact == 2:
         for k in range(2):
             cb, cm, gam = tangent(table, act[k], pb, pm, x0, ym)
-            slip = cb * v0b + cm * v0m + gam
-            fric[1 + k] = 0.0 if abs(slip) < 1e-12 else math.copysign(1.0, slip)
+            rate = cb * v0b + cm * v0m + gam
+            if abs(rate) < 1e-12:
+                slip[k] = FREE
+            else:
+                slip[k] = SLIDE_POSITIVE if rate > 0.0 else SLIDE_NEGATIVE
         return True
     cb, cm, gam = tangent(table, act[0], pb, pm, x0, ym)
     slip0 = cb * v0b + cm * v0m + gam
-    first = 1.0 if slip0 >= 0.0 else -1.0
+    first = SLIDE_POSITIVE if slip0 >= 0.0 else SLIDE_NEGATIVE
     dd = 1e-7
     for mode in (first, -first, STICK):
-        fric[1] = mode
-        vb, vm, lam, _ = velocity(table, act, nact, pb, pm, x0, ym, sqb, sqm, fric)
+        slip[0] = mode
+        vb, vm, lam, _ = velocity(table, act, nact, pb, pm, x0, ym, sqb, sqm, mu, slip)
         if not (math.isfinite(vb) and math.isfinite(vm) and lam >= 0.0):
             continue
         # Judge the state a short move ahead: at a stick-slip transition the state at the
         # point itself is marginal, and the wrong choice would fire its event at once.
         qb, qm, yy = pb + dd * vb, pm + dd * vm, ym - dd
-        wb, wm, lam2, x2 = velocity(table, act, nact, qb, qm, x0, yy, sqb, sqm, fric)
+        wb, wm, lam2, x2 = velocity(table, act, nact, qb, qm, x0, yy, sqb, sqm, mu, slip)
         if not (math.isfinite(wb) and math.isfinite(wm) and lam2 >= 0.0):
             continue
         if mode == STICK:
-            if abs(x2) <= fric[0] * lam2:
+            if abs(x2) <= mu * lam2:
                 return True
         else:
             tb, tm, tg = tangent(table, act[0], qb, qm, x0, yy)
             if mode * (tb * wb + tm * wm + tg) >= 0.0:
                 return True
-    fric[1] = 0.0
+    slip[0] = FREE
     return False

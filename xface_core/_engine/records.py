@@ -82,9 +82,11 @@ E_SPUN = int(EventKind.SPUN)
 E_TURN = int(EventKind.TURN)
 E_SLIP = int(EventKind.SLIP)
 
-#: Friction state of an active contact (``Work.fric[1 + k]``), stored as a float.
-FREE = float(SlipState.FREE)
-STICK = float(SlipState.STICK)
+#: Friction state of an active contact (``Work.slip[k]``).
+FREE = int(SlipState.FREE)
+STICK = int(SlipState.STICK)
+SLIDE_POSITIVE = int(SlipState.SLIDE_POSITIVE)
+SLIDE_NEGATIVE = int(SlipState.SLIDE_NEGATIVE)
 
 # ---- geometric and numerical constants of the engine -------------------------------------
 TINY = 1e-300
@@ -201,16 +203,14 @@ class Work(NamedTuple):
     (so a corner touching several features cannot cycle)."""
     act: IntArray
     """Active contacts (first ``n_active``; 4 slots, -1 padded)."""
-    fric: FloatArray
-    """fric[0]: Coulomb coefficient; fric[1 + k]: friction state of active contact k."""
+    slip: IntArray
+    """Friction state (:class:`~xface_core.codes.SlipState`) of active contacts 0 and 1."""
 
 
 @njit(cache=True, nogil=True)
 def new_work(model: Model, opts: Options) -> Work:
     """Fresh scratch arrays for one run."""
     n = model.pairs.shape[0]
-    fric = np.zeros(3)
-    fric[0] = opts.friction
     return Work(
         np.empty((n, 6)),
         np.empty(n),
@@ -221,5 +221,5 @@ def new_work(model: Model, opts: Options) -> Work:
         np.empty(MAX_CAND, dtype=np.int64),
         np.full(MAX_EXCLUDED, -1, dtype=np.int64),
         np.full(4, -1, dtype=np.int64),
-        fric,
+        np.full(2, FREE, dtype=np.int64),
     )

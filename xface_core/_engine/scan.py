@@ -68,11 +68,11 @@ def _slip_events(
     """A sliding contact stops or reverses, or a stuck one starts to slide."""
     y1 = step.y_m - step.h
     for k in range(seg.n_active):
-        if seg.fric[1 + k] == FREE:
+        if seg.slip[k] == FREE:
             continue
         margin = slip_margin(
             seg.pairs, seg.act, seg.n_active, k, nb, nm, seg.x0, y1, seg.sqrt_winv_b,
-            seg.sqrt_winv_m, seg.fric,
+            seg.sqrt_winv_m, seg.mu, seg.slip,
         )  # fmt: skip
         if margin < 0.0:
             _, hk = locate(seg, step, opts.event_tol, E_SLIP, seg.act[k], k, 0.0)

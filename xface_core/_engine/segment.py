@@ -77,8 +77,8 @@ def begin_segment(
         u_prev[i] = ev[i, 1]
     record(run, path, path_pairs, _phase(run), act, n)
     return Segment(
-        model.pairs, act, n, work.fric, run.x0, run.y_floor, opts.sqrt_winv_b, opts.sqrt_winv_m,
-        opts.winv_b, opts.winv_m,
+        model.pairs, act, n, opts.friction, work.slip, run.x0, run.y_floor, opts.sqrt_winv_b,
+        opts.sqrt_winv_m, opts.winv_b, opts.winv_m,
     )  # fmt: skip
 
 
