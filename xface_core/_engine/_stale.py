@@ -16,12 +16,16 @@ from pathlib import Path
 STAMP_NAME = "xface-engine-sources.sha256"
 
 
-def source_digest() -> str:
-    """SHA-256 over the engine's modules and the code definitions they compile against."""
+def engine_sources() -> list[Path]:
+    """The engine's modules and the code definitions they compile against."""
     here = Path(__file__).resolve().parent
-    files = [*sorted(here.glob("*.py")), here.parent / "codes.py", here.parent / "physics.py"]
+    return [*sorted(here.glob("*.py")), here.parent / "codes.py", here.parent / "physics.py"]
+
+
+def source_digest(files: list[Path] | None = None) -> str:
+    """SHA-256 over the names and contents of ``files`` (default: :func:`engine_sources`)."""
     h = hashlib.sha256()
-    for path in files:
+    for path in engine_sources() if files is None else files:
         h.update(path.name.encode())
         h.update(path.read_bytes())
     return h.hexdigest()
