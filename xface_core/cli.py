@@ -119,8 +119,7 @@ def _cmd_predict(args: argparse.Namespace) -> int:
         args.x0,
         args.theta0,
         y_start=args.y_start,
-        damping_ratio=physics.damping_ratio,
-        friction=physics.friction,
+        physics=physics,
         margins=not args.no_margins,
     )
     if args.rrd:
@@ -209,8 +208,7 @@ def _cmd_map(args: argparse.Namespace) -> int:
         design,
         grid=args.grid,
         theta_kind=args.theta_grid,
-        damping_ratio=physics.damping_ratio,
-        friction=physics.friction,
+        physics=physics,
         coarse=args.coarse,
     )
     if args.png:
@@ -266,8 +264,7 @@ def _table_for(face: str, args: argparse.Namespace, physics: Physics) -> MTable:
         face,
         method=method,
         theta_kind=theta,
-        damping_ratio=physics.damping_ratio,
-        friction=physics.friction,
+        physics=physics,
         workers=args.workers,
     )
 

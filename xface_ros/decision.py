@@ -277,8 +277,7 @@ def simulate(
         start.x0,
         start.theta0,
         y_start=start.y_start,
-        damping_ratio=config.physics.damping_ratio,
-        friction=config.physics.friction,
+        physics=config.physics,
         path=path,
         margins=margins,
     )

@@ -58,8 +58,7 @@ def warm_up_simulator(config: NodeConfig) -> None:
         config.design,
         0.0,
         0.0,
-        damping_ratio=config.physics.damping_ratio,
-        friction=config.physics.friction,
+        physics=config.physics,
         path=True,
         margins=True,
     )
