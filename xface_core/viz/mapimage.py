@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Any, NamedTuple, Protocol
+from typing import Any, NamedTuple, Protocol, TypeAlias
 
 import numpy as np
 import numpy.typing as npt
@@ -298,24 +298,32 @@ def map_to_rgb(amap: AcceptanceMapLike, *, scale: int = 8) -> npt.NDArray[np.uin
 _FONT_PX = 13
 _PAD = 8
 _TICK = 4
+_INK: RGB = (0, 0, 0)
+_PAPER: RGB = (255, 255, 255)
+
+_Font: TypeAlias = ImageFont.FreeTypeFont | ImageFont.ImageFont
+#: (grid index, value) per tick.
+_Ticks: TypeAlias = list[tuple[int, float]]
+#: (text, swatch colour, outlined like the guaranteed rectangle) per legend row.
+_LegendEntry: TypeAlias = tuple[str, RGB, bool]
 
 
-def _font(size: int) -> ImageFont.FreeTypeFont | ImageFont.ImageFont:
+def _font(size: int) -> _Font:
     # Pillow's bundled font (no system fonts needed on a bare machine); it covers ASCII only,
     # so labels say "theta0" and "-" rather than the Greek letter and the minus sign.
     return ImageFont.load_default(size=size)
 
 
-def _text_size(font: ImageFont.FreeTypeFont | ImageFont.ImageFont, text: str) -> tuple[int, int]:
+def _text_size(font: _Font, text: str) -> tuple[int, int]:
     left, top, right, bottom = font.getbbox(text)
     return math.ceil(right - left), math.ceil(bottom - top)
 
 
-def _ticks(values: npt.NDArray[np.float64], nice: list[float]) -> list[tuple[int, float]]:
+def _ticks(values: npt.NDArray[np.float64], nice: list[float]) -> _Ticks:
     """Grid indices and values of the ``nice`` tick values that lie on the axis (within half
     a cell); the axis ends when fewer than two do."""
     half = 0.5 * float(np.min(np.diff(values))) if values.size > 1 else 0.5
-    chosen: list[tuple[int, float]] = []
+    chosen: _Ticks = []
     for v in nice:
         i = int(np.argmin(np.abs(values - v)))
         if abs(values[i] - v) <= half and all(i != j for j, _ in chosen):
@@ -334,6 +342,163 @@ def _default_title(design: FaceDesign) -> str:
     if design.kind == "custom":
         return f"custom face, L = {design.mated_distance:g} D"
     return f"{design.kind}-Face, H/D = {design.h_over_d:g}, r_p = {design.r_p:g} D"
+
+
+class _Layout(NamedTuple):
+    """Where everything goes in the PNG (pixels)."""
+
+    left: int
+    """First pixel column of the cells."""
+    top: int
+    """First pixel row of the cells."""
+    right: int
+    """Pixel column just after the cells."""
+    bottom: int
+    """Pixel row just after the cells."""
+    width: int
+    height: int
+    line_h: int
+    """Height of one line of label text, and of one legend row."""
+    swatch: int
+    """Side of a legend colour swatch."""
+    n: int
+    """Grid rows (x0)."""
+    scale: int
+    """Pixels per cell side."""
+
+
+def _counts(amap: AcceptanceMapLike, outcomes: npt.NDArray[np.int64]) -> dict[Outcome, int]:
+    """Cells per outcome; ``amap.M`` must be the SEATED count."""
+    counts = {o: int(np.count_nonzero(outcomes == int(o))) for o in Outcome}
+    if int(amap.M) != counts[Outcome.SEATED]:
+        raise XfaceValueError(
+            f"map.M = {amap.M} but the grid has {counts[Outcome.SEATED]} SEATED cells"
+        )
+    return counts
+
+
+def _axis_ticks(
+    x0: npt.NDArray[np.float64], theta0: npt.NDArray[np.float64], width_unit: float, scale: int
+) -> tuple[_Ticks, _Ticks]:
+    """Ticks of x0 / D (vertical axis) and of theta0 in degrees (horizontal axis)."""
+    x_ticks = _ticks(x0 / width_unit, [-1.0, -0.5, 0.0, 0.5, 1.0])
+    t_ticks = _ticks(np.degrees(theta0), [-90.0, -60.0, -30.0, 0.0, 30.0, 60.0, 90.0])
+    if len(t_ticks) > 2 and theta0.size * scale < 240:  # keep the labels apart on small pictures
+        t_ticks = t_ticks[::2]
+    return x_ticks, t_ticks
+
+
+def _legend(
+    counts: dict[Outcome, int], rect: tuple[int, int, int, int] | None
+) -> list[_LegendEntry]:
+    """One entry per outcome with its count, then the guaranteed rectangle's size."""
+    legend = [
+        (f"{o.name.lower().replace('_', ' ')}: {counts[o]}", _COLORS[o], False) for o in Outcome
+    ]
+    if rect is None:
+        legend.append(("guaranteed: none", _PAPER, True))
+    else:
+        r0, r1, c0, c1 = rect
+        legend.append((f"guaranteed: {r1 - r0} x {c1 - c0}", _PAPER, True))
+    return legend
+
+
+def _layout(
+    font: _Font,
+    title_font: _Font,
+    heading: str,
+    x_ticks: _Ticks,
+    legend_rows: int,
+    shape: tuple[int, int],
+    scale: int,
+) -> _Layout:
+    """Title on top, x0 labels on the left, theta0 labels below, legend right."""
+    n, m = shape
+    tick_w = max(_text_size(font, _tick_label(v))[0] for _, v in x_ticks)
+    line_h = _text_size(font, "Ag")[1] + 4
+    left = _PAD + line_h + _PAD + tick_w + _TICK + 2
+    top = _PAD + _text_size(title_font, heading)[1] + 2 * _PAD
+    swatch = line_h - 3
+    # Sized for the widest possible entries, so every map of a grid size has one layout.
+    widest = [f"{o.name.lower().replace('_', ' ')}: {n * m}" for o in Outcome]
+    widest.append(f"guaranteed: {n} x {m}")
+    legend_w = max(_text_size(font, text)[0] for text in widest) + swatch + 3 * _PAD
+    right = left + m * scale
+    bottom = top + n * scale
+    width = max(right + 2 * _PAD + legend_w, left + _text_size(title_font, heading)[0] + _PAD)
+    height = max(bottom + _TICK + 2 * line_h + 2 * _PAD, top + legend_rows * line_h + _PAD)
+    return _Layout(left, top, right, bottom, width, height, line_h, swatch, n, scale)
+
+
+def _draw_guaranteed(
+    draw: ImageDraw.ImageDraw, lay: _Layout, rect: tuple[int, int, int, int]
+) -> None:
+    """Outline the guaranteed rectangle's cells (inside their pixel box)."""
+    r0, r1, c0, c1 = rect
+    left, top, n, scale = lay.left, lay.top, lay.n, lay.scale
+    # Rows are flipped in the picture: grid row r spans y from top + (n - 1 - r) * scale.
+    box = (left + c0 * scale, top + (n - r1) * scale, left + c1 * scale, top + (n - r0) * scale)
+    draw.rectangle(
+        (box[0], box[1], box[2] - 1, box[3] - 1),
+        outline=GUARANTEED_OUTLINE,
+        width=max(1, min(3, scale // 3)),
+    )
+
+
+def _draw_ticks(
+    draw: ImageDraw.ImageDraw, font: _Font, lay: _Layout, x_ticks: _Ticks, t_ticks: _Ticks
+) -> None:
+    """Tick marks and their values: x0 on the left edge, theta0 below the cells."""
+    left, top, n, scale = lay.left, lay.top, lay.n, lay.scale
+    for i, v in x_ticks:
+        y = top + (n - 1 - i) * scale + scale // 2
+        draw.line((left - 1 - _TICK, y, left - 1, y), fill=_INK)
+        label = _tick_label(v)
+        tw, th = _text_size(font, label)
+        draw.text((left - 2 - _TICK - 2 - tw, y - th // 2 - 2), label, font=font, fill=_INK)
+    for j, v in t_ticks:
+        x = left + j * scale + scale // 2
+        draw.line((x, lay.bottom, x, lay.bottom + _TICK), fill=_INK)
+        label = _tick_label(v)
+        tw, _ = _text_size(font, label)
+        draw.text((x - tw // 2, lay.bottom + _TICK + 2), label, font=font, fill=_INK)
+
+
+def _draw_axis_names(
+    image: Image.Image, draw: ImageDraw.ImageDraw, font: _Font, lay: _Layout
+) -> None:
+    """ "theta0 (deg)" centred below the ticks, "x0 / D" turned upright left of the cells."""
+    x_label = "theta0 (deg)"
+    tw, _ = _text_size(font, x_label)
+    draw.text(
+        (lay.left + (lay.right - lay.left - tw) // 2, lay.bottom + _TICK + lay.line_h + 2),
+        x_label,
+        font=font,
+        fill=_INK,
+    )
+    y_label = "x0 / D"
+    tw, _ = _text_size(font, y_label)
+    label_img = Image.new("RGB", (tw + 4, lay.line_h), _PAPER)
+    ImageDraw.Draw(label_img).text((2, 0), y_label, font=font, fill=_INK)
+    rotated = label_img.rotate(90, expand=True)
+    image.paste(rotated, (_PAD, lay.top + (lay.bottom - lay.top - rotated.height) // 2))
+
+
+def _draw_legend(
+    draw: ImageDraw.ImageDraw, font: _Font, lay: _Layout, legend: list[_LegendEntry]
+) -> None:
+    """A swatch and its text per entry, one line each, right of the cells."""
+    lx = lay.right + 2 * _PAD
+    swatch = lay.swatch
+    for k, (text, color, outlined) in enumerate(legend):
+        y = lay.top + k * lay.line_h
+        if outlined:
+            draw.rectangle(
+                (lx, y, lx + swatch, y + swatch), fill=color, outline=GUARANTEED_OUTLINE, width=2
+            )
+        else:
+            draw.rectangle((lx, y, lx + swatch, y + swatch), fill=color, outline=(90, 90, 90))
+        draw.text((lx + swatch + _PAD, y), text, font=font, fill=_INK)
 
 
 def save_map_png(
@@ -394,103 +559,30 @@ def save_map_png(
     scale = _check_scale(scale)
     x0, theta0, outcomes = checked_grid(amap)
     rect = guaranteed_cells(amap)
+    counts = _counts(amap, outcomes)
     design = amap.design
     n, m = outcomes.shape
-    counts = {o: int(np.count_nonzero(outcomes == int(o))) for o in Outcome}
-    if int(amap.M) != counts[Outcome.SEATED]:
-        raise XfaceValueError(
-            f"map.M = {amap.M} but the grid has {counts[Outcome.SEATED]} SEATED cells"
-        )
 
     font = _font(_FONT_PX)
     title_font = _font(_FONT_PX + 3)
-    width_unit = design.width
-    x_ticks = _ticks(x0 / width_unit, [-1.0, -0.5, 0.0, 0.5, 1.0])
-    t_ticks = _ticks(np.degrees(theta0), [-90.0, -60.0, -30.0, 0.0, 30.0, 60.0, 90.0])
-    if len(t_ticks) > 2 and m * scale < 240:  # keep the labels apart on small pictures
-        t_ticks = t_ticks[::2]
-
+    x_ticks, t_ticks = _axis_ticks(x0, theta0, design.width, scale)
     heading = f"{title if title is not None else _default_title(design)}   M = {amap.M} / {n * m}"
-    legend = [
-        (f"{o.name.lower().replace('_', ' ')}: {counts[o]}", _COLORS[o], False) for o in Outcome
-    ]
-    if rect is None:
-        legend.append(("guaranteed: none", (255, 255, 255), True))
-    else:
-        r0, r1, c0, c1 = rect
-        legend.append((f"guaranteed: {r1 - r0} x {c1 - c0}", (255, 255, 255), True))
+    legend = _legend(counts, rect)
+    lay = _layout(font, title_font, heading, x_ticks, len(legend), (n, m), scale)
 
-    # Layout (pixels): title on top, x0 labels on the left, theta0 labels below, legend right.
-    tick_w = max(_text_size(font, _tick_label(v))[0] for _, v in x_ticks)
-    line_h = _text_size(font, "Ag")[1] + 4
-    left = _PAD + line_h + _PAD + tick_w + _TICK + 2
-    top = _PAD + _text_size(title_font, heading)[1] + 2 * _PAD
-    swatch = line_h - 3
-    # Sized for the widest possible entries, so every map of a grid size has one layout.
-    widest = [f"{o.name.lower().replace('_', ' ')}: {n * m}" for o in Outcome]
-    widest.append(f"guaranteed: {n} x {m}")
-    legend_w = max(_text_size(font, text)[0] for text in widest) + swatch + 3 * _PAD
-    right_edge = left + m * scale
-    bottom_edge = top + n * scale
-    width = max(right_edge + 2 * _PAD + legend_w, left + _text_size(title_font, heading)[0] + _PAD)
-    height = max(bottom_edge + _TICK + 2 * line_h + 2 * _PAD, top + len(legend) * line_h + _PAD)
-
-    image = Image.new("RGB", (width, height), (255, 255, 255))
-    image.paste(Image.fromarray(map_to_rgb(amap, scale=scale), mode="RGB"), (left, top))
+    image = Image.new("RGB", (lay.width, lay.height), _PAPER)
+    image.paste(Image.fromarray(map_to_rgb(amap, scale=scale), mode="RGB"), (lay.left, lay.top))
     draw = ImageDraw.Draw(image)
-    ink = (0, 0, 0)
-    draw.rectangle((left - 1, top - 1, right_edge, bottom_edge), outline=ink)
-    draw.text((left, _PAD), heading, font=title_font, fill=ink)
-
+    draw.rectangle((lay.left - 1, lay.top - 1, lay.right, lay.bottom), outline=_INK)
+    draw.text((lay.left, _PAD), heading, font=title_font, fill=_INK)
     if rect is not None:
-        r0, r1, c0, c1 = rect
-        # Rows are flipped in the picture: grid row r spans y from top + (n - 1 - r) * scale.
-        box = (left + c0 * scale, top + (n - r1) * scale, left + c1 * scale, top + (n - r0) * scale)
-        draw.rectangle(
-            (box[0], box[1], box[2] - 1, box[3] - 1),
-            outline=GUARANTEED_OUTLINE,
-            width=max(1, min(3, scale // 3)),
-        )
-
-    for i, v in x_ticks:
-        y = top + (n - 1 - i) * scale + scale // 2
-        draw.line((left - 1 - _TICK, y, left - 1, y), fill=ink)
-        label = _tick_label(v)
-        tw, th = _text_size(font, label)
-        draw.text((left - 2 - _TICK - 2 - tw, y - th // 2 - 2), label, font=font, fill=ink)
-    for j, v in t_ticks:
-        x = left + j * scale + scale // 2
-        draw.line((x, bottom_edge, x, bottom_edge + _TICK), fill=ink)
-        label = _tick_label(v)
-        tw, _ = _text_size(font, label)
-        draw.text((x - tw // 2, bottom_edge + _TICK + 2), label, font=font, fill=ink)
-
-    x_label = "theta0 (deg)"
-    tw, _ = _text_size(font, x_label)
-    draw.text(
-        (left + (m * scale - tw) // 2, bottom_edge + _TICK + line_h + 2),
-        x_label,
-        font=font,
-        fill=ink,
-    )
-    y_label = "x0 / D"
-    tw, th = _text_size(font, y_label)
-    label_img = Image.new("RGB", (tw + 4, line_h), (255, 255, 255))
-    ImageDraw.Draw(label_img).text((2, 0), y_label, font=font, fill=ink)
-    rotated = label_img.rotate(90, expand=True)
-    image.paste(rotated, (_PAD, top + (n * scale - rotated.height) // 2))
-
-    lx = right_edge + 2 * _PAD
-    for k, (text, color, outlined) in enumerate(legend):
-        y = top + k * line_h
-        if outlined:
-            draw.rectangle(
-                (lx, y, lx + swatch, y + swatch), fill=color, outline=GUARANTEED_OUTLINE, width=2
-            )
-        else:
-            draw.rectangle((lx, y, lx + swatch, y + swatch), fill=color, outline=(90, 90, 90))
-        draw.text((lx + swatch + _PAD, y), text, font=font, fill=ink)
+        _draw_guaranteed(draw, lay, rect)
+    _draw_ticks(draw, font, lay, x_ticks, t_ticks)
+    _draw_axis_names(image, draw, font, lay)
+    _draw_legend(draw, font, lay, legend)
 
     out = Path(path)
     image.save(out, format="PNG")
-    return MapPicture(path=out, size=(width, height), cells=(left, top, right_edge, bottom_edge))
+    return MapPicture(
+        path=out, size=(lay.width, lay.height), cells=(lay.left, lay.top, lay.right, lay.bottom)
+    )

@@ -474,28 +474,52 @@ def log_prediction(
     ...     rec, predict(x_face(0.25, 2.0), 0.3, 0.2), ros_stamp_ns=1_700_000_000_000_000_000
     ... )
     """
-    if ros_stamp_ns is not None and (
-        isinstance(ros_stamp_ns, bool) or not isinstance(ros_stamp_ns, int | np.integer)
-    ):
-        raise XfaceValueError(f"ros_stamp_ns must be an integer (ns), got {ros_stamp_ns!r}")
+    _check_stamp(ros_stamp_ns)
     e = _root(entity)
     d = prediction.design
-    w = d.width
-    x0 = prediction.x0
     descent, phi_b, phi_m, y_m, phase, has_path = _path_arrays(prediction)
-    _check_finite("the prediction's pose", [x0, prediction.theta0])
+    _check_finite("the prediction's pose", [prediction.x0, prediction.theta0])
     _check_finite("the prediction's path", np.concatenate((descent, phi_b, phi_m, y_m)))
     n = descent.size
     idx = _indexes(n, descent, ros_stamp_ns)
 
     _log_statics(rec, e, d, with_design=design)
+    first = _indexes(1, descent[:1], ros_stamp_ns)
+    base_d, moving_d = _log_outlines(rec, e, prediction, (phi_b, phi_m, y_m), idx, first)
+    _log_pivots(rec, e, prediction.x0, y_m, idx)
+    _log_contacts(rec, e, prediction, n, has_path, idx)
+    gap = _gap(d, base_d, moving_d) * d.width
+    series = {"phi_b": phi_b, "phi_m": phi_m, "descent": descent, "gap": gap}
+    _log_series(rec, e, phase, series, idx)
+    _log_text(rec, e, prediction, phase, descent, ros_stamp_ns)
 
-    # Outlines: (n, v + 1, 2) closed polygons per layer and part, in units of D.
+
+def _check_stamp(ros_stamp_ns: object) -> None:
+    if ros_stamp_ns is not None and (
+        isinstance(ros_stamp_ns, bool) or not isinstance(ros_stamp_ns, int | np.integer)
+    ):
+        raise XfaceValueError(f"ros_stamp_ns must be an integer (ns), got {ros_stamp_ns!r}")
+
+
+def _log_outlines(
+    rec: rr.RecordingStream,
+    e: str,
+    prediction: Prediction,
+    path: tuple[FloatArray, FloatArray, FloatArray],
+    idx: list[rr.TimeColumn],
+    first: list[rr.TimeColumn],
+) -> tuple[list[FloatArray], list[FloatArray]]:
+    """Per layer: the base and moving outlines per sample of ``path = (phi_b, phi_m, y_m)``,
+    and the seated target at the ``first`` sample. Returns the path outlines in units of D
+    ((n, v + 1, 2) closed polygons per layer; base, then moving) for the gap."""
+    phi_b, phi_m, y_m = path
+    d = prediction.design
+    w = d.width
     base_d = [_closed(d.base_outline_path(k, phi_b)) for k in range(d.n_layers)]
     moving_d = [
-        _closed(d.moving_outline_path(k, x0 / w, y_m / w, phi_m)) for k in range(d.n_layers)
+        _closed(d.moving_outline_path(k, prediction.x0 / w, y_m / w, phi_m))
+        for k in range(d.n_layers)
     ]
-    first = _indexes(1, descent[:1], ros_stamp_ns)
     for k in range(d.n_layers):
         for part, outlines in (("base", base_d[k]), ("moving", moving_d[k])):
             rec.send_columns(
@@ -505,17 +529,31 @@ def log_prediction(
             )
         # The seated pose for this x0 as a grey ghost, at the first sample only (latest-at
         # keeps it for the rest of the path); an empty row clears it when no seat exists.
-        target = np.zeros((0, 0, 2))
-        if abs(x0) <= d.mated_distance * w:
-            phi = np.array([d.seated_angle(x0)])
-            y_seat = d.mated_distance * np.cos(phi)
-            target = _closed(d.moving_outline_path(k, x0 / w, y_seat, phi)) * w
+        target = _target_outline(d, k, prediction.x0)
         rec.send_columns(
             f"{e}/scene/target/layer{k}",
             indexes=first,
             columns=rr.LineStrips2D.columns(strips=list(target)).partition([len(target)]),
         )
+    return base_d, moving_d
 
+
+def _target_outline(d: FaceDesign, k: int, x0: float) -> FloatArray:
+    """Layer k of the moving part seated at this x0, as a (1, v + 1, 2) closed outline in the
+    design's unit; (0, 0, 2) when no seated pose exists (|x0| > L)."""
+    w = d.width
+    if abs(x0) > d.mated_distance * w:
+        return np.zeros((0, 0, 2))
+    phi = np.array([d.seated_angle(x0)])
+    y_seat = d.mated_distance * np.cos(phi)
+    return _closed(d.moving_outline_path(k, x0 / w, y_seat, phi)) * w
+
+
+def _log_pivots(
+    rec: rr.RecordingStream, e: str, x0: float, y_m: FloatArray, idx: list[rr.TimeColumn]
+) -> None:
+    """Base pivot (the origin) and moving pivot (x0, y_m) per sample."""
+    n = y_m.size
     pivots = np.zeros((n, 2, 2))
     pivots[:, 1, 0] = x0
     pivots[:, 1, 1] = y_m
@@ -525,6 +563,16 @@ def log_prediction(
         columns=rr.Points2D.columns(positions=pivots.reshape(-1, 2)).partition(np.full(n, 2)),
     )
 
+
+def _log_contacts(
+    rec: rr.RecordingStream,
+    e: str,
+    prediction: Prediction,
+    n: int,
+    has_path: bool,
+    idx: list[rr.TimeColumn],
+) -> None:
+    """Active contact points and their drawn normals per sample (n samples)."""
     points, arrows = _contacts(prediction, n, has_path)
     counts = [p.shape[0] for p in points]
     rec.send_columns(
@@ -540,19 +588,24 @@ def log_prediction(
         ),
     )
 
+
+def _log_series(
+    rec: rr.RecordingStream,
+    e: str,
+    phase: npt.NDArray[np.int64],
+    series: dict[str, FloatArray],
+    idx: list[rr.TimeColumn],
+) -> None:
+    """The phase as a state per sample, and each named series as scalars per sample."""
     rec.send_columns(
         f"{e}/phase",
         indexes=idx,
         columns=rr.StateChange.columns(state=[Phase(int(p)).name for p in phase]),
     )
-
-    gap = _gap(d, base_d, moving_d) * w
-    for name, values in (("phi_b", phi_b), ("phi_m", phi_m), ("descent", descent), ("gap", gap)):
+    for name, values in series.items():
         rec.send_columns(
             f"{e}/series/{name}", indexes=idx, columns=rr.Scalars.columns(scalars=values)
         )
-
-    _log_text(rec, e, prediction, phase, descent, ros_stamp_ns)
 
 
 def _stack2(arrays: Sequence[FloatArray]) -> FloatArray:
