@@ -1,0 +1,119 @@
+"""events.py: event functions, locating an event's zero in a step, the earlier of two."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from xface_core._engine.events import (
+    NO_EVENT,
+    Event,
+    earlier,
+    event_value,
+    locate,
+    segment_velocity,
+    step_to,
+)
+from xface_core._engine.pairs import pair_at
+from xface_core._engine.records import (
+    E_BELOW_SEAT,
+    E_CONTACT,
+    E_OFF_EDGE,
+    E_RELEASE,
+    E_SPUN,
+    U_TOL,
+)
+
+EVENT_TOL = 1e-12
+
+
+def _assert_brackets(lo: float, hi: float, root: float) -> None:
+    assert 0.0 < lo <= hi
+    assert hi - lo <= EVENT_TOL
+    # The root to round-off of the event function (a few ulps of y_M ~ 2.5).
+    assert lo - 4e-15 <= root <= hi + 4e-15
+
+
+def test_below_seat_is_located_at_the_floor(incline) -> None:
+    step = incline.step(0.05)
+    seg = incline.segment(y_floor=step.y_m - 0.0123)
+    lo, hi = locate(seg, step, EVENT_TOL, E_BELOW_SEAT, -1, 0, 0.0)
+    _assert_brackets(lo, hi, step.y_m - seg.y_floor)
+
+
+def test_a_new_contact_is_located_where_the_closed_form_path_meets_it(incline) -> None:
+    # Pair 1's edge is placed where the exact path puts its vertex at s_touch.
+    step, seg = incline.step(0.05), incline.segment()
+    lo, hi = locate(seg, step, EVENT_TOL, E_CONTACT, 1, 0, 0.0)
+    _assert_brackets(lo, hi, incline.s_touch)
+    # Before and after on the integrated path: clear, then touching.
+    assert event_value(seg, E_CONTACT, 1, 0, 0.0, *step_to(seg, step, lo)[:2], step.y_m - lo) > 0
+    assert event_value(seg, E_CONTACT, 1, 0, 0.0, *step_to(seg, step, hi)[:2], step.y_m - hi) <= 0
+
+
+def test_a_contact_threshold_moves_the_event(incline) -> None:
+    # Counting as touching 1e-4 D before the gap closes brings the event forward.
+    step, seg = incline.step(0.05), incline.segment()
+    thr = 1e-4
+    root = _root(lambda s: incline.gap(1, incline.phi_m_at(s), step.y_m - s) - thr, 0.0, 0.05)
+    lo, hi = locate(seg, step, EVENT_TOL, E_CONTACT, 1, 0, thr)
+    assert root < incline.s_touch
+    _assert_brackets(lo, hi, root)
+
+
+def _root(f, lo: float, hi: float) -> float:
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        if f(mid) > 0.0:
+            lo = mid
+        else:
+            hi = mid
+    return 0.5 * (lo + hi)
+
+
+def test_an_event_already_past_at_the_start_is_located_there(incline) -> None:
+    step = incline.step(0.05)
+    seg = incline.segment(y_floor=step.y_m)  # exactly at the floor: f = 0 at the start
+    assert locate(seg, step, EVENT_TOL, E_BELOW_SEAT, -1, 0, 0.0) == (0.0, 0.0)
+    seg = incline.segment(y_floor=step.y_m + 1.0)
+    assert locate(seg, step, EVENT_TOL, E_BELOW_SEAT, -1, 0, 0.0) == (0.0, 0.0)
+
+
+def test_off_edge_function_is_the_distance_inside_the_span(incline) -> None:
+    seg = incline.segment()
+    pm, ym = incline.phi_m0, incline.y0
+    u = pair_at(incline.table, 0, 0.0, pm, incline.x0, ym)[1]
+    assert 0.0 < u < 1.0
+    value = event_value(seg, E_OFF_EDGE, 0, 0, 0.0, 0.0, pm, ym)
+    assert value == min(u + U_TOL, 1.0 + U_TOL - u)
+
+
+def test_release_function_is_the_contact_force(incline) -> None:
+    seg = incline.segment(n_active=2, winv_b=1.0)
+    ym = incline.y0 - incline.s_touch
+    pm = incline.phi_m_at(incline.s_touch)
+    _, _, l1, l2 = segment_velocity(seg, 0.0, pm, ym)
+    assert event_value(seg, E_RELEASE, 0, 0, 0.0, 0.0, pm, ym) == l1
+    assert event_value(seg, E_RELEASE, 1, 1, 0.0, 0.0, pm, ym) == l2
+
+
+def test_spun_function_is_the_margin_to_half_a_turn(incline) -> None:
+    seg = incline.segment()
+    assert event_value(seg, E_SPUN, -1, 0, 0.0, 0.5, -3.0, 1.0) == pytest.approx(math.pi - 3.0)
+
+
+def test_earlier_prefers_any_event_to_none() -> None:
+    late = Event(E_CONTACT, 3, 0.2)
+    assert earlier(late, NO_EVENT) == late
+
+
+def test_earlier_keeps_the_smaller_descent() -> None:
+    a, b = Event(E_CONTACT, 3, 0.2), Event(E_RELEASE, 1, 0.1)
+    assert earlier(a, b) == b
+    assert earlier(b, a) == b
+
+
+def test_earlier_keeps_the_first_found_on_a_tie() -> None:
+    first, second = Event(E_RELEASE, 1, 0.1), Event(E_CONTACT, 3, 0.1)
+    assert earlier(second, first) == first

@@ -1,0 +1,79 @@
+"""integrate.py: one Dormand-Prince step against the closed-form path, the projection."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from xface_core._engine.integrate import project, rk_step
+from xface_core._engine.pairs import pair_at
+from xface_core._engine.records import FREE
+from xface_core.physics import DEFAULT_SETTINGS
+
+ONE = np.array([0, -1, -1, -1], dtype=np.int64)
+TWO = np.array([0, 1, -1, -1], dtype=np.int64)
+NO_SLIP = np.array([FREE, FREE], dtype=np.int64)
+
+
+def _step(incline, h: float, *, projected: bool = True) -> tuple[float, float, float, float, bool]:
+    """One step down the held incline from its exact start. Without ``projected`` the
+    projection is given no metric to move in (W^-1 = 0), leaving the bare Dormand-Prince
+    step; the rate itself uses the held base's W^-1 = diag(0, 1) either way."""
+    w = 1.0 if projected else 0.0
+    return rk_step(
+        incline.table, ONE, 1, 0.0, incline.phi_m0, incline.x0, incline.y0, h,
+        0.0, 1.0, 0.0, w, 0.0, NO_SLIP,
+    )  # fmt: skip
+
+
+def test_a_step_lands_on_the_closed_form_path(incline) -> None:
+    h = 0.02
+    nb, nm, _, em, ok = _step(incline, h)
+    assert ok
+    assert nb == 0.0
+    assert nm == pytest.approx(incline.phi_m_at(h), abs=1e-14)
+    # ... and would be accepted at the default tolerances.
+    assert em <= DEFAULT_SETTINGS.atol + DEFAULT_SETTINGS.rtol * abs(nm)
+
+
+@pytest.mark.parametrize("h", [0.05, 0.02, 0.01])
+def test_the_bare_step_lies_within_its_error_estimate(incline, h: float) -> None:
+    _, nm, _, em, ok = _step(incline, h, projected=False)
+    assert ok
+    assert 0.0 < abs(nm - incline.phi_m_at(h)) <= em
+
+
+def test_the_error_estimate_is_of_fifth_order(incline) -> None:
+    # The embedded 4th-order solution's local error, and so the estimate, scales as h^5.
+    ratio = _step(incline, 0.02)[3] / _step(incline, 0.01)[3]
+    assert 2**5 * 0.75 < ratio < 2**5 * 1.25
+
+
+def test_projection_brings_one_contact_back_along_the_metric(incline) -> None:
+    # Base free with W^-1 = diag(1/4, 1): the correction runs along W^-1 a.
+    pb, pm, ym = 0.0, incline.phi_m0 + 1e-3, incline.y0
+    assert abs(incline.gap(0, pm, ym, pb)) > 1e-4
+    qb, qm = project(incline.table, ONE, 1, pb, pm, incline.x0, ym, 0.25, 1.0)
+    assert abs(incline.gap(0, qm, ym, qb)) <= 2e-15
+    _, _, a_b, a_m, *_ = pair_at(incline.table, 0, pb, pm, incline.x0, ym)
+    along = np.array([0.25 * a_b, a_m])
+    moved = np.array([qb - pb, qm - pm])
+    assert abs(along[0] * moved[1] - along[1] * moved[0]) <= 1e-6 * np.linalg.norm(moved)
+
+
+def test_projection_brings_two_contacts_back(incline) -> None:
+    # At the descent s_touch both pairs of the incline touch; start off both.
+    ym = incline.y0 - incline.s_touch
+    pb, pm = 2e-3, incline.phi_m_at(incline.s_touch) - 1e-3
+    assert min(abs(incline.gap(0, pm, ym, pb)), abs(incline.gap(1, pm, ym, pb))) > 1e-4
+    qb, qm = project(incline.table, TWO, 2, pb, pm, incline.x0, ym, 1.0, 1.0)
+    assert abs(incline.gap(0, qm, ym, qb)) <= 2e-15
+    assert abs(incline.gap(1, qm, ym, qb)) <= 2e-15
+
+
+def test_projection_of_a_held_base_leaves_it_alone(incline) -> None:
+    qb, qm = project(
+        incline.table, ONE, 1, 0.0, incline.phi_m0 - 1e-3, incline.x0, incline.y0, 0.0, 1.0
+    )
+    assert qb == 0.0
+    assert qm == pytest.approx(incline.phi_m0, abs=1e-15)

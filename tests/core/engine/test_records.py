@@ -1,0 +1,92 @@
+"""records.py: options from Physics, the run record's fields, the codes, fresh work arrays."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import xface_core as xf
+from xface_core import codes
+from xface_core._engine import records
+from xface_core.physics import Physics, SolverSettings
+from xface_core.runner import engine_model
+
+
+def test_infinite_damping_ratio_holds_the_base() -> None:
+    opts = records.make_options(Physics(damping_ratio=math.inf))
+    assert (opts.winv_b, opts.sqrt_winv_b) == (0.0, 0.0)
+    assert (opts.winv_m, opts.sqrt_winv_m) == (1.0, 1.0)
+
+
+def test_damping_ratio_sets_the_inverse_weights_and_their_roots() -> None:
+    opts = records.make_options(Physics(damping_ratio=4.0))
+    assert opts.winv_b == 0.25
+    assert opts.sqrt_winv_b == 0.5
+    assert opts.winv_m == 1.0
+    assert opts.sqrt_winv_m == 1.0
+
+
+def test_options_carry_the_settings_and_friction() -> None:
+    settings = SolverSettings(rtol=1e-6, atol=1e-9, event_tol=1e-11, max_steps=77, max_events=9)
+    opts = records.make_options(Physics(friction=0.3, settings=settings))
+    assert (opts.rtol, opts.atol, opts.event_tol) == (1e-6, 1e-9, 1e-11)
+    assert (opts.max_steps, opts.max_events) == (77, 9)
+    assert (opts.touch_tol, opts.seat_tol) == (settings.touch_tol, settings.seat_tol)
+    assert (opts.max_step, opts.first_step) == (settings.max_step, settings.first_step)
+    assert opts.jam_speed == settings.jam_speed
+    assert opts.friction == 0.3
+    assert type(opts.max_steps) is int
+    assert type(opts.max_events) is int
+
+
+def test_run_dtype_fields() -> None:
+    i, f, b = np.dtype(np.int64), np.dtype(np.float64), np.dtype(np.bool_)
+    expected = {
+        "outcome": i, "reason": i, "phi_b": f, "phi_m": f, "y_m": f, "steps": i, "events": i,
+        "contact_changes": i, "rejected_steps": i, "n_samples": i, "x0": f, "y_floor": f,
+        "h": f, "n_active": i, "n_excluded": i, "had_contact": b,
+    }  # fmt: skip
+    assert {name: records.RUN_DTYPE[name] for name in records.RUN_DTYPE.names} == expected
+
+
+#: Engine constant prefix of each code enum, and the members spelled differently there.
+_PREFIXES = {"O_": codes.Outcome, "R_": codes.Reason, "P_": codes.Phase, "E_": codes.EventKind}
+_SPELLING = {"O_INVALID": "INVALID_INPUT"}
+
+
+@pytest.mark.parametrize("prefix", sorted(_PREFIXES))
+def test_engine_code_constants_are_exactly_the_enum_members(prefix: str) -> None:
+    enum = _PREFIXES[prefix]
+    constants = {
+        name: value
+        for name, value in vars(records).items()
+        if name.startswith(prefix) and name.isupper() and isinstance(value, int)
+    }
+    as_members = {_SPELLING.get(n, n[len(prefix) :]): v for n, v in constants.items()}
+    assert as_members == {m.name: m.value for m in enum}
+    assert all(type(v) is int for v in constants.values())  # plain ints: numba folds them
+
+
+def test_slip_state_constants_are_the_enum_values() -> None:
+    named = {s.name: s.value for s in codes.SlipState}
+    assert {n: getattr(records, n) for n in named} == named
+
+
+def test_undecided_is_no_outcome() -> None:
+    assert records.UNDECIDED not in {o.value for o in codes.Outcome}
+
+
+def test_new_work_is_sized_for_the_model_and_cleared() -> None:
+    model = engine_model(xf.v_face(0.5, 1.0))
+    work = records.new_work(model, records.make_options(Physics()))
+    n = model.pairs.shape[0]
+    assert work.ev.shape == (n, 6)
+    for name in ("g_prev", "u_prev", "g_next", "u_next", "thr"):
+        assert getattr(work, name).shape == (n,)
+    assert np.all(work.thr == 0.0)
+    assert work.cand.shape == (records.MAX_CAND,)
+    assert np.array_equal(work.exclude, np.full(records.MAX_EXCLUDED, -1))
+    assert np.array_equal(work.act, [-1, -1, -1, -1])
+    assert np.array_equal(work.slip, [records.FREE, records.FREE])

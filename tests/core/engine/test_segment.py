@@ -1,0 +1,97 @@
+"""segment.py: the start of a smooth segment, the trial step and the accepted step."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from xface_core._engine.records import (
+    MAX_TURN,
+    P_ALIGN,
+    RUN_DTYPE,
+    Model,
+    make_options,
+    new_work,
+)
+from xface_core._engine.segment import accept_step, begin_segment, trial_step
+from xface_core.physics import Physics
+
+OPTS = make_options(Physics(damping_ratio=np.inf))  # the incline's base is held
+
+
+def _model(incline) -> Model:
+    no_edges = np.zeros((0, 5))
+    return Model(incline.table, no_edges, no_edges, 2.5)
+
+
+def _run(incline, pm: float, ym: float) -> np.ndarray:
+    runs = np.zeros(1, dtype=RUN_DTYPE)
+    r = runs[0]
+    r["phi_m"], r["y_m"], r["x0"], r["n_active"], r["h"] = pm, ym, incline.x0, 1, 0.01
+    r["y_floor"] = -np.inf
+    return runs
+
+
+def _begin(incline, pm: float, ym: float):
+    model = _model(incline)
+    runs = _run(incline, pm, ym)
+    work = new_work(model, OPTS)
+    work.act[0] = 0
+    path, pairs = np.zeros((4, 4)), np.zeros((4, 4), dtype=np.int64)
+    seg = begin_segment(model, OPTS, runs[0], work, path, pairs)
+    return seg, runs, work, path, pairs
+
+
+def test_begin_segment_starts_exactly_on_the_contact(incline) -> None:
+    # Off the constraint by ~1e-9 (an event's leftover): projected back onto it.
+    seg, runs, _, path, _ = _begin(incline, incline.phi_m0 + 1e-9, incline.y0)
+    r = runs[0]
+    assert abs(incline.gap(0, r["phi_m"], r["y_m"])) <= 1e-15
+    assert (seg.n_active, seg.act[0], seg.x0) == (1, 0, incline.x0)
+    assert path[0].tolist() == [r["y_m"], 0.0, r["phi_m"], P_ALIGN]
+
+
+def test_begin_segment_sets_the_thresholds_of_new_contacts(incline) -> None:
+    # At s_touch pair 1 touches too (gap ~ 0): it counts as new only once it closes past
+    # the touching tolerance; pair 0's threshold likewise; clear pairs count at zero.
+    ym = incline.y0 - incline.s_touch
+    _, _, work, _, _ = _begin(incline, incline.phi_m_at(incline.s_touch), ym)
+    tt = OPTS.touch_tol
+    for i in range(2):
+        assert abs(work.g_prev[i]) <= tt
+        assert work.thr[i] == min(work.g_prev[i], 0.0) - tt
+    _, _, work, _, _ = _begin(incline, incline.phi_m0, incline.y0)
+    assert work.g_prev[1] > tt
+    assert work.thr[1] == 0.0
+
+
+def test_a_short_trial_step_is_accepted_with_its_turn(incline) -> None:
+    seg, *_ = _begin(incline, incline.phi_m0, incline.y0)
+    nb, nm, err, turn, ok = trial_step(OPTS, seg, incline.step(0.005))
+    assert ok
+    assert err <= 1.0
+    assert nb == 0.0
+    assert nm == pytest.approx(incline.phi_m_at(0.005), abs=1e-14)
+    assert turn == abs(nm - incline.phi_m0)
+
+
+def test_a_trial_step_turning_more_than_the_cap_is_rejected(incline) -> None:
+    # dphi_M/ds ~ -1.3 here: 0.05 D of descent would turn the part by ~0.06 rad.
+    seg, *_ = _begin(incline, incline.phi_m0, incline.y0)
+    _, _, err, turn, ok = trial_step(OPTS, seg, incline.step(0.05))
+    assert turn > MAX_TURN
+    assert (err, ok) == (np.inf, False)
+
+
+def test_accept_step_moves_the_run_and_sizes_the_next_step(incline) -> None:
+    seg, runs, work, path, pairs = _begin(incline, incline.phi_m0, incline.y0)
+    r = runs[0]
+    h = r["h"]
+    nb, nm, err, turn, ok = trial_step(OPTS, seg, incline.step(h))
+    assert ok
+    work.g_next[:] = [0.5, 0.25]
+    accept_step(r, work, nb, nm, err, turn, path, pairs)
+    assert (r["phi_b"], r["phi_m"], r["y_m"], r["steps"]) == (nb, nm, incline.y0 - h, 1)
+    assert work.g_prev.tolist() == [0.5, 0.25]
+    grow = 5.0 if err == 0.0 else min(5.0, max(0.2, 0.9 * err**-0.2))
+    assert r["h"] == pytest.approx(min(h * grow, 0.9 * MAX_TURN * h / turn), rel=1e-15)
