@@ -75,7 +75,10 @@ NO_EVENT = Event(E_NONE, -1, 0.0)
 
 @njit_no_refcount
 def earlier(candidate: Event, best: Event) -> Event:
-    """The earlier of two events (the candidate wins when nothing was found yet)."""
+    """The earlier of two events (a candidate wins when nothing was found yet; no event
+    never wins)."""
+    if candidate.kind == E_NONE:
+        return best
     if best.kind == E_NONE or candidate.h < best.h:
         return candidate
     return best

@@ -177,7 +177,11 @@ def approach(
     model: Model, opts: Options, run: Run, work: Work, path: FloatArray, path_pairs: IntArray
 ) -> None:
     """Nothing touches: translate along -y, angles frozen, exactly to the next contact (or
-    end: passed, never touched, or below the seat)."""
+    end: passed, never touched, or below the seat).
+
+    Runs right after :func:`begin_interval` found no contact, on the pair values
+    (``work.ev`` columns 0-4) it evaluated at this state.
+    """
     fill_u_rate(model.pairs, run.phi_b, run.phi_m, work.ev)
     d, _ = next_contact(work.ev, opts.touch_tol)
     if not math.isfinite(d):
