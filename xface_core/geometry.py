@@ -46,6 +46,9 @@ FloatArray = npt.NDArray[np.float64]
 #: and double precision starts to lose the profile against the pivot distance.
 MAX_DESIGN_RATIO = 1.0e4
 
+#: Shortest accepted polygon edge (D): a repeated vertex makes an edge without a direction.
+MIN_EDGE_LENGTH = 1e-9
+
 
 def _check_ratio(name: str, value: float, *, allow_zero: bool) -> float:
     value = float(value)
@@ -381,15 +384,30 @@ def custom_face(
 
 
 def _validated_polygon(points: npt.ArrayLike, name: str) -> FloatArray:
-    arr = np.asarray(points, dtype=np.float64)
+    try:
+        arr = np.asarray(points, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise GeometryError(
+            f"{name}: vertices must be numbers in an (n, 2) array (ragged or non-numeric input)"
+        ) from None
     if arr.ndim != 2 or arr.shape[1] != 2 or arr.shape[0] < 3:
         raise GeometryError(f"{name}: need an (n >= 3, 2) array of vertices, got {arr.shape}")
     if not np.all(np.isfinite(arr)):
         raise GeometryError(f"{name}: vertices must be finite")
+    if arr.shape[0] > 3 and np.array_equal(arr[0], arr[-1]):
+        # A closed ring (the first vertex repeated last) describes the same polygon.
+        arr = arr[:-1]
+    step = np.hypot(*(np.roll(arr, -1, axis=0) - arr).T)
+    if np.any(step <= MIN_EDGE_LENGTH):
+        k = int(np.argmax(step <= MIN_EDGE_LENGTH))
+        raise GeometryError(
+            f"{name}: vertices {k} and {(k + 1) % len(arr)} coincide (an edge of length "
+            f"{step[k]:.3g} D); remove the repeated vertex"
+        )
     poly = shapely.Polygon(arr)
     if not poly.is_valid or poly.area <= 0.0:
         reason = shapely.is_valid_reason(poly)
         raise GeometryError(f"{name}: not a simple polygon ({reason})")
     if not shapely.is_ccw(poly.exterior):
         arr = arr[::-1].copy()
-    return arr
+    return np.ascontiguousarray(arr)
