@@ -17,7 +17,7 @@ def test_defaults_are_the_papers_model() -> None:
     assert (p.damping_ratio, p.friction, p.settings) == (1.0, 0.0, xf.DEFAULT_SETTINGS)
 
 
-@pytest.mark.parametrize("value", [0.0, -1.0, math.nan, True, "1"])
+@pytest.mark.parametrize("value", [0.0, -1.0, math.nan, True, "1", 1e-300, 1e-9, 1e9, -math.inf])
 def test_bad_damping_ratio_is_rejected_with_its_name(value: object) -> None:
     with pytest.raises(XfaceValueError, match="damping_ratio"):
         Physics(damping_ratio=value)  # type: ignore[arg-type]
@@ -27,6 +27,20 @@ def test_bad_damping_ratio_is_rejected_with_its_name(value: object) -> None:
 def test_bad_friction_is_rejected_with_its_name(value: object) -> None:
     with pytest.raises(XfaceValueError, match="friction"):
         Physics(friction=value)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("value", [1e-4, 1.0, 1e4, math.inf])
+def test_supported_damping_ratios_are_accepted(value: float) -> None:
+    assert Physics(damping_ratio=value).damping_ratio == value
+
+
+def test_the_extreme_damping_ratio_that_gave_nan_angles_is_refused_by_predict() -> None:
+    # Before: NaN final angles reported as BAD_MATE.
+    with pytest.raises(XfaceValueError, match="damping_ratio must be in"):
+        xf.predict(
+            xf.s_face(0.0017347218674217794, 0.0), 0.0010450531173217942, -1.503134859460741,
+            damping_ratio=1e-300, friction=0.103,
+        )  # fmt: skip
 
 
 def test_infinite_damping_ratio_holds_the_base() -> None:
