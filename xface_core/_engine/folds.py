@@ -12,7 +12,7 @@ import numpy as np
 from numba import njit
 
 from .pairs import eval_pair, pair_at
-from .records import CUT_DEPTH, U_CORNER, FloatArray, IntArray, njit_no_refcount
+from .records import CUT_DEPTH, FOLD_REACH, U_CORNER, FloatArray, IntArray, njit_no_refcount
 
 
 @njit_no_refcount
@@ -57,14 +57,16 @@ def solve_fold(
     Jacobian in q singular, i.e. the lowest point the pinned contacts can reach.
 
     Integration can only approach a fold like sqrt(distance), so the end state is solved for
-    directly (Newton, finite-difference Jacobian); returns (pb, pm, ym, converged).
+    directly (Newton, finite-difference Jacobian); returns (pb, pm, ym, converged), where
+    converged also requires the fold within FOLD_REACH (D) of the start height.
     """
     x = np.array([pb, pm, ym])
     jac = np.empty((3, 3))
     for _ in range(30):
         f0 = np.array(fold_residual(table, act, x[0], x[1], x0, x[2]))
         if abs(f0[0]) < 1e-14 and abs(f0[1]) < 1e-14 and abs(f0[2]) < 1e-12:
-            return x[0], x[1], x[2], True
+            # Converged, but a fold further than FOLD_REACH from the start is not this one.
+            return x[0], x[1], x[2], abs(x[2] - ym) < FOLD_REACH
         for j in range(3):
             step = 1e-7
             xp = x.copy()
@@ -80,7 +82,7 @@ def solve_fold(
         if not (np.all(np.isfinite(x)) and abs(x[0] - pb) < 0.1 and abs(x[1] - pm) < 0.1):
             break
     f0 = np.array(fold_residual(table, act, x[0], x[1], x0, x[2]))
-    ok = abs(f0[0]) < 1e-10 and abs(f0[1]) < 1e-10 and abs(x[2] - ym) < 1e-3
+    ok = abs(f0[0]) < 1e-10 and abs(f0[1]) < 1e-10 and abs(x[2] - ym) < FOLD_REACH
     return x[0], x[1], x[2], ok
 
 

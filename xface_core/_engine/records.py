@@ -98,6 +98,7 @@ MAX_TURN = 0.02  # rad per accepted step
 MAX_CAND = 16  # touching pairs considered at once
 MAX_EXCLUDED = 8  # pairs kept out of the touching set at one point of the path
 FOLD_RISE = 1e-6  # D: a located turn's fold must lie this close to the turn's height
+FOLD_REACH = 1e-3  # D: solve_fold accepts a fold only this close to its start height
 
 
 class Model(NamedTuple):

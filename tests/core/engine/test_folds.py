@@ -105,13 +105,6 @@ def test_solve_fold_accepts_a_fold_within_1e_3_below_its_start(fold_table: np.nd
     assert (fb, fm, fy) == pytest.approx(FOLD, abs=1e-9)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="solve_fold returns converged=True from its early exit (residuals below 1e-14) "
-    "without the |y_fold - y_start| < 1e-3 D check it applies after the loop, so the bound "
-    "that segment.jump_to_fold and docs/architecture.md rely on holds only when Newton "
-    "does not converge fully",
-)
 def test_solve_fold_refuses_a_fold_more_than_1e_3_below_its_start(fold_table: np.ndarray) -> None:
     # 3e-3 D above the fold the angles are within its reach (phi_B moves by ~0.07 rad,
     # about sqrt(1.6 rise), under the 0.1 rad it allows), but the fold is 3e-3 D below.
