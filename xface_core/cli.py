@@ -1,9 +1,11 @@
-"""The ``xface`` command line: predict one dock, map a design, tabulate M, benchmark.
+"""The ``xface`` command line: predict one dock, map a design, tabulate M, benchmark, and
+cross-check xface against an independent engine.
 
 Lengths are in units of D unless ``--width`` gives D in metres (or any unit): then x0 and
 y-start are read, and lengths printed, in that unit. Plain text by default, ``--json`` for
 machines. Recordings (``--rrd``), pictures (``--png``) and the bench plot need the ``viz``
 extra (rerun-sdk, pillow); without it they exit with code 2 and say so, before simulating.
+``xface crosscheck`` needs the ``crosscheck`` extra (pymunk) in the same way.
 """
 
 from __future__ import annotations
@@ -36,8 +38,16 @@ _VIZ_HINT = "pip install 'xface[viz]'"
 _VIZ_OPTIONS = (("png", "--png", "mapimage"), ("rrd", "--rrd", "recording"))
 
 
+#: What to install for ``xface crosscheck``.
+_CROSSCHECK_HINT = "pip install 'xface[crosscheck]'"
+
+
 class _VizMissing(Exception):
     """An option needs the viz extra, which is not installed (``args[0]`` names it)."""
+
+
+class _CrosscheckMissing(Exception):
+    """``xface crosscheck`` needs the crosscheck extra, which is not installed."""
 
 
 def _check_viz(args: argparse.Namespace) -> None:
@@ -54,6 +64,18 @@ def _check_viz(args: argparse.Namespace) -> None:
             if (exc.name or "").partition(".")[0] == __package__:
                 raise  # a bug of ours, not a missing extra
             raise _VizMissing(option) from None
+
+
+def _check_crosscheck(args: argparse.Namespace) -> None:
+    """Import the cross-check (and so pymunk) before anything runs, if the command needs it."""
+    if args.command != "crosscheck":
+        return
+    try:
+        importlib.import_module(f"{__package__}.crosscheck.compare")
+    except ImportError as exc:
+        if (exc.name or "").partition(".")[0] != "pymunk":
+            raise  # a bug of ours, not a missing extra
+        raise _CrosscheckMissing from None
 
 
 def _design_args(
@@ -326,6 +348,86 @@ def _cmd_table(args: argparse.Namespace) -> int:
     return 0
 
 
+def _crosscheck_cells(args: argparse.Namespace) -> list[tuple[float, float]] | None:
+    if args.cells is None:
+        return None
+    if args.cells < 1:
+        raise XfaceValueError(f"--cells must be >= 1, got {args.cells}")
+    from .crosscheck.compare import random_cells
+
+    x0, theta0 = random_cells(args.cells, seed=args.seed)
+    return list(zip(x0.tolist(), theta0.tolist(), strict=True))
+
+
+def _cmd_crosscheck(args: argparse.Namespace) -> int:
+    from dataclasses import replace
+
+    from .crosscheck.compare import crosscheck, result_json, stderr_progress
+    from .crosscheck.scene import DEFAULT_ENGINE
+
+    physics = _physics(args)
+    design = make_face(args.face, args.h_over_d, args.rp)
+    if args.grid is not None and args.grid < 3:
+        raise XfaceValueError(f"--grid must be an odd integer >= 3, got {args.grid}")
+    settings = DEFAULT_ENGINE if args.step is None else replace(DEFAULT_ENGINE, step=args.step)
+    result = crosscheck(
+        design,
+        physics,
+        grid=41 if args.grid is None else args.grid,
+        cells=_crosscheck_cells(args),
+        settings=settings,
+        converged=args.converged,
+        workers=args.workers,
+        progress=None if args.quiet else stderr_progress,
+    )
+    if args.json:
+        print(json.dumps(result_json(result), default=_json_default))
+        return 0
+    for line in _crosscheck_lines(args.face, result):
+        print(line)
+    return 0
+
+
+def _crosscheck_lines(face: str, r: Any) -> list[str]:
+    """The plain-text report of a :class:`~xface_core.crosscheck.CrosscheckResult`."""
+    d, s = r.design, r.settings
+    where = f"{r.grid} x {r.grid} grid" if r.grid is not None else "random cells"
+    conv = {None: "", True: ", converged", False: ", NOT converged"}[r.converged]
+    lines = [
+        (
+            f"crosscheck {face}-Face H/D={d.h_over_d:g} r_p={d.r_p:g} "
+            f"(damping ratio {r.physics.damping_ratio:g}, friction {r.physics.friction:g}): "
+            f"{r.n_cells} cells ({where}), {r.seconds:.0f} s"
+        ),
+        (
+            f"engine    Chipmunk2D, step {s.step:g} D{conv}, slop {s.slop:g} D, "
+            f"sharp and {r.rounding:g} D rounded corners"
+        ),
+    ]
+    for step, changed in r.step_history:
+        lines.append(f"          step halved to {step:g} D: {changed} cells changed")
+    m_xface, m_engine = r.m_values()
+    lines += [
+        (
+            f"agreement {100 * r.agreement:.2f} % of {r.n_unambiguous} unambiguous cells "
+            f"(SEATED or not); exact outcome {100 * r.outcome_agreement:.2f} %"
+        ),
+        f"ambiguous {r.n_ambiguous} (sharp and rounded corners disagree, budget, or unconverged)",
+        f"false SEATED {r.false_seated}   false failures {r.false_failures}",
+        f"M         xface {m_xface}, engine {m_engine} (sharp corners)",
+    ]
+    if r.disagreements:
+        lines.append("disagreements: x0 (D), theta0 (rad); final phi_b, phi_m (rad), y_m (D)")
+    for g in r.disagreements:
+        x, e = g.xface, g.engine
+        lines.append(
+            f"  x0={g.x0:+.4f} theta0={g.theta0:+.4f}  {g.kind}: "
+            f"xface {x.outcome.name} ({x.phi_b:+.3f}, {x.phi_m:+.3f}, {x.y_m:.3f}) | "
+            f"engine {e.outcome.name} ({e.phi_b:+.3f}, {e.phi_m:+.3f}, {e.y_m:.3f}) {e.reason}"
+        )
+    return lines
+
+
 def _cmd_bench(args: argparse.Namespace) -> int:
     from .bench import run_bench
 
@@ -376,6 +478,26 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=_cmd_table)
 
+    p = sub.add_parser(
+        "crosscheck", help="compare xface with an independent engine (Chipmunk2D), cell by cell"
+    )
+    p.add_argument("--face", type=str.upper, choices=("X", "V", "S"), default="X")
+    p.add_argument("--h-over-d", type=float, default=0.25, help="profile height H / width D")
+    p.add_argument("--rp", type=float, default=2.0, help="pivot to profile base, in widths D")
+    _physics_args(p)
+    cells = p.add_mutually_exclusive_group()
+    cells.add_argument("--grid", type=int, default=None, help="nodes per axis (odd; default 41)")
+    cells.add_argument("--cells", type=int, default=None, help="this many random cells")
+    p.add_argument("--seed", type=int, default=0, help="seed of the random cells")
+    p.add_argument("--step", type=float, default=None, help="engine step (D of free descent)")
+    p.add_argument(
+        "--converged", action="store_true", help="halve the step until the map stops changing"
+    )
+    p.add_argument("--workers", type=int, default=None, help="processes (default: all cores)")
+    p.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    p.add_argument("--json", action="store_true", help="machine-readable output")
+    p.set_defaults(func=_cmd_crosscheck)
+
     p = sub.add_parser("bench", help="work-precision benchmark and stress summary")
     p.add_argument("--out", default="bench", help="output folder for the table and plot")
     p.add_argument("--quick", action="store_true", help="fewer designs and settings")
@@ -388,9 +510,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         _check_viz(args)
+        _check_crosscheck(args)
         result: int = args.func(args)
     except _VizMissing as exc:
         print(f"xface: {exc.args[0]} needs the viz extra: {_VIZ_HINT}", file=sys.stderr)
+        return 2
+    except _CrosscheckMissing:
+        print(f"xface: crosscheck needs the crosscheck extra: {_CROSSCHECK_HINT}", file=sys.stderr)
         return 2
     except XfaceError as exc:
         print(f"xface: error: {exc}", file=sys.stderr)

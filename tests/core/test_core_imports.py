@@ -15,8 +15,9 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
 
-#: Top-level modules of the viz extra (rerun-sdk brings rerun_bindings) and of ROS.
-BLOCKED = ("rerun", "rerun_bindings", "PIL", "rclpy")
+#: Top-level modules of the viz extra (rerun-sdk brings rerun_bindings), of the crosscheck
+#: extra (pymunk) and of ROS.
+BLOCKED = ("rerun", "rerun_bindings", "PIL", "rclpy", "pymunk")
 
 # A fresh interpreter with a meta-path finder that refuses the blocked modules, so imports
 # behave as in an environment where `pip install .` installed the simulator alone.

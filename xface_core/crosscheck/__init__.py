@@ -1,0 +1,24 @@
+"""An independent cross-check of xface in Chipmunk2D (pymunk): the ``crosscheck`` extra.
+
+``pip install 'xface[crosscheck]'``; ``import xface_core`` never imports this package.
+:func:`crosscheck` runs xface and the engine on the same cells and reports agreement,
+ambiguous cells and every disagreement; :func:`run_cell` is one engine run.
+See ``docs/crosscheck.md``.
+"""
+
+from __future__ import annotations
+
+from .compare import CrosscheckResult, Disagreement, crosscheck, random_cells
+from .scene import DEFAULT_ENGINE, EngineRun, EngineSettings, classify, run_cell
+
+__all__ = [
+    "DEFAULT_ENGINE",
+    "CrosscheckResult",
+    "Disagreement",
+    "EngineRun",
+    "EngineSettings",
+    "classify",
+    "crosscheck",
+    "random_cells",
+    "run_cell",
+]

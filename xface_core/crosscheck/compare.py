@@ -1,0 +1,484 @@
+"""xface against Chipmunk2D, cell by cell: :func:`crosscheck`.
+
+Every cell (a start pose x0, theta0) runs three times: in xface (:func:`predict_batch`), in
+the engine with sharp corners and in the engine with corners rounded by ``rounding`` D
+(:mod:`xface_core.crosscheck.scene`). A cell is **ambiguous** when the two engine runs
+disagree on whether the parts seat, when either ran out of its budget, or (``converged``)
+when the last halving of the step still changed it: the engine's answer there depends on an
+artefact, so xface is not judged on it. On the other cells the engine's answer is that of
+the sharp run (both runs agree on it), and the report counts
+
+- ``agreement``: the fraction of unambiguous cells where xface and the engine agree on
+  SEATED or not (what the acceptance metric M counts);
+- ``false_seated``: xface says SEATED where the engine's answer is a failure (the worst
+  error of a docking predictor: the robot moves and the dock fails);
+- ``false_failures``: xface says a failure where the engine seats;
+- ``outcome_agreement``: the same over the exact outcome (BAD_MATE, PASSED, ...), on the
+  unambiguous cells whose two engine runs also agree on the outcome.
+
+Lengths in units of D (the cells' x0 too: the design's width does not enter), angles in rad.
+"""
+
+from __future__ import annotations
+
+import math
+import multiprocessing
+import os
+import sys
+import time
+from collections.abc import Callable, Sequence
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass, field
+
+import numpy as np
+import numpy.typing as npt
+
+from xface_core.codes import Outcome
+from xface_core.geometry import FaceDesign
+from xface_core.grids import theta_grid, x0_grid
+from xface_core.physics import Physics
+from xface_core.predict import predict
+from xface_core.runner import predict_batch
+
+from .scene import DEFAULT_ENGINE, DEFAULT_ROUNDING, EngineRun, EngineSettings, run_cell
+
+__all__ = [
+    "CrosscheckResult",
+    "Disagreement",
+    "XfaceEnd",
+    "crosscheck",
+    "random_cells",
+    "result_json",
+    "stderr_progress",
+]
+
+FloatArray = npt.NDArray[np.float64]
+BoolArray = npt.NDArray[np.bool_]
+Progress = Callable[[int, int, float], None]
+
+#: Runs below which the engine runs in this process instead of a pool.
+INLINE_RUNS = 8
+
+#: Halvings of the step that ``converged=True`` tries at most.
+MAX_HALVINGS = 3
+
+
+@dataclass(frozen=True)
+class XfaceEnd:
+    """xface's final state of one cell (lengths in D)."""
+
+    outcome: Outcome
+    reason: str
+    phi_b: float
+    phi_m: float
+    y_m: float
+
+
+@dataclass(frozen=True)
+class Disagreement:
+    """One cell where xface and the engine's unambiguous answer differ on seating."""
+
+    index: int
+    """Cell index (row-major over the grid: ``index = row * grid + column``)."""
+    x0: float
+    theta0: float
+    xface: XfaceEnd
+    engine: EngineRun
+    """The sharp run (the rounded one agrees on seating)."""
+    engine_rounded: EngineRun
+
+    @property
+    def kind(self) -> str:
+        """``"false SEATED"`` or ``"false failure"`` (xface's side)."""
+        return "false SEATED" if self.xface.outcome is Outcome.SEATED else "false failure"
+
+
+@dataclass(frozen=True)
+class CrosscheckResult:
+    """Per-cell outcomes of xface and the engine, and the comparison (flat over the cells;
+    for a grid, row-major with rows x0 and columns theta0, see :meth:`grid_of`)."""
+
+    design: FaceDesign
+    physics: Physics
+    settings: EngineSettings
+    """The engine settings of the reported runs (their ``step`` is the one used)."""
+    rounding: float
+    x0: FloatArray
+    theta0: FloatArray
+    grid: int | None
+    xface: npt.NDArray[np.int8]
+    engine: npt.NDArray[np.int8]
+    engine_rounded: npt.NDArray[np.int8]
+    ambiguous: BoolArray
+    sharp_runs: tuple[EngineRun, ...] = field(repr=False)
+    rounded_runs: tuple[EngineRun, ...] = field(repr=False)
+    disagreements: tuple[Disagreement, ...] = field(repr=False)
+    converged: bool | None = None
+    """None without ``converged``; else whether the last halving changed no cell."""
+    step_history: tuple[tuple[float, int], ...] = ()
+    """(step, cells that changed when the step was halved to it) per halving."""
+    seconds: float = 0.0
+
+    @property
+    def n_cells(self) -> int:
+        return int(self.x0.size)
+
+    @property
+    def n_ambiguous(self) -> int:
+        return int(self.ambiguous.sum())
+
+    @property
+    def n_unambiguous(self) -> int:
+        return self.n_cells - self.n_ambiguous
+
+    @property
+    def agreement(self) -> float:
+        """Fraction of the unambiguous cells where both agree on SEATED or not (nan if none)."""
+        if self.n_unambiguous == 0:
+            return math.nan
+        return 1.0 - len(self.disagreements) / self.n_unambiguous
+
+    @property
+    def false_seated(self) -> int:
+        return sum(1 for d in self.disagreements if d.xface.outcome is Outcome.SEATED)
+
+    @property
+    def false_failures(self) -> int:
+        return len(self.disagreements) - self.false_seated
+
+    @property
+    def outcome_agreement(self) -> float:
+        """Fraction of the unambiguous cells whose two engine runs agree on the outcome where
+        xface gives that same outcome (nan if none)."""
+        same = ~self.ambiguous & (self.engine == self.engine_rounded)
+        n = int(same.sum())
+        return math.nan if n == 0 else float((self.xface[same] == self.engine[same]).sum()) / n
+
+    def m_values(self) -> tuple[int, int]:
+        """SEATED cells of xface and of the engine (sharp runs)."""
+        seated = int(Outcome.SEATED)
+        return int((self.xface == seated).sum()), int((self.engine == seated).sum())
+
+    def grid_of(self, values: npt.NDArray[np.generic]) -> npt.NDArray[np.generic]:
+        """A per-cell array as the (grid, grid) map (rows x0, columns theta0)."""
+        if self.grid is None:
+            raise ValueError("these cells are not a grid")
+        return values.reshape(self.grid, self.grid)
+
+
+# --------------------------------------------------------------------------------------------
+# Cells
+# --------------------------------------------------------------------------------------------
+
+
+def grid_cells(grid: int) -> tuple[FloatArray, FloatArray]:
+    """The cells of :func:`xface_core.acceptance_map`'s grid, row-major (rows x0 in D)."""
+    X, T = np.meshgrid(x0_grid(grid), theta_grid(grid), indexing="ij")
+    return X.ravel(), T.ravel()
+
+
+def random_cells(k: int, seed: int = 0) -> tuple[FloatArray, FloatArray]:
+    """``k`` cells drawn uniformly from x0 in [-1, 1] D and theta0 in [-pi/2, pi/2].
+
+    Examples
+    --------
+    >>> x, t = random_cells(3, seed=1)
+    >>> x.shape, bool((abs(x) <= 1).all() and (abs(t) <= 1.5708).all())
+    ((3,), True)
+    """
+    rng = np.random.default_rng(seed)
+    return rng.uniform(-1.0, 1.0, k), rng.uniform(-math.pi / 2, math.pi / 2, k)
+
+
+# --------------------------------------------------------------------------------------------
+# Running the engine over many cells
+# --------------------------------------------------------------------------------------------
+
+_WORKER: dict[str, object] = {}
+
+
+def _init_worker(design: FaceDesign, physics: Physics) -> None:
+    _WORKER["design"] = design
+    _WORKER["physics"] = physics
+
+
+def _run_task(task: tuple[float, float, EngineSettings]) -> EngineRun:
+    design = _WORKER["design"]
+    physics = _WORKER["physics"]
+    assert isinstance(design, FaceDesign)
+    assert isinstance(physics, Physics)
+    x0, theta0, settings = task
+    return run_cell(design, x0, theta0, physics=physics, settings=settings)
+
+
+def stderr_progress(done: int, total: int, elapsed: float) -> None:
+    """Progress with an estimate of the time left, on stderr."""
+    left = elapsed / done * (total - done) if done else math.nan
+    print(
+        f"crosscheck: {done}/{total} engine runs, {elapsed:.0f} s, about {left:.0f} s left",
+        file=sys.stderr,
+        flush=True,
+    )
+
+
+def run_engine(
+    design: FaceDesign,
+    physics: Physics,
+    tasks: Sequence[tuple[float, float, EngineSettings]],
+    *,
+    workers: int | None = None,
+    progress: Progress | None = None,
+) -> list[EngineRun]:
+    """The engine over ``tasks`` (x0 in D, theta0, settings), in processes when worth it."""
+    n_workers = max(1, os.cpu_count() or 1) if workers is None else max(1, workers)
+    start = time.monotonic()
+    if n_workers == 1 or len(tasks) <= INLINE_RUNS:
+        _init_worker(design, physics)
+        out = []
+        for i, task in enumerate(tasks):
+            out.append(_run_task(task))
+            if progress is not None and (i + 1) % 50 == 0:
+                progress(i + 1, len(tasks), time.monotonic() - start)
+        return out
+    # Interleaved order spreads slow regions of a map over the workers; small chunks keep
+    # the estimate honest.
+    # fork where there is one: no re-import of the caller's main module (scripts without a
+    # ``__main__`` guard work), and the workers inherit the compiled xface and pymunk.
+    methods = multiprocessing.get_all_start_methods()
+    context = multiprocessing.get_context("fork" if "fork" in methods else "spawn")
+    chunk = max(1, min(16, len(tasks) // (8 * n_workers)))
+    results: list[EngineRun] = []
+    report_every = max(1, len(tasks) // 20)
+    with ProcessPoolExecutor(
+        n_workers, mp_context=context, initializer=_init_worker, initargs=(design, physics)
+    ) as pool:
+        for i, run in enumerate(pool.map(_run_task, tasks, chunksize=chunk)):
+            results.append(run)
+            if progress is not None and ((i + 1) % report_every == 0 or i + 1 == len(tasks)):
+                progress(i + 1, len(tasks), time.monotonic() - start)
+    return results
+
+
+def _engine_pass(
+    design: FaceDesign,
+    physics: Physics,
+    x0: FloatArray,
+    theta0: FloatArray,
+    settings: EngineSettings,
+    rounding: float,
+    workers: int | None,
+    progress: Progress | None,
+) -> tuple[list[EngineRun], list[EngineRun]]:
+    """Sharp and rounded runs of every cell at one step size."""
+    sharp = settings.with_step(settings.step)
+    rounded = settings.rounded(rounding)
+    tasks = [
+        (float(x), float(t), s) for s in (sharp, rounded) for x, t in zip(x0, theta0, strict=True)
+    ]
+    runs = run_engine(design, physics, tasks, workers=workers, progress=progress)
+    n = len(x0)
+    return runs[:n], runs[n:]
+
+
+def _codes(runs: Sequence[EngineRun]) -> npt.NDArray[np.int8]:
+    return np.array([int(r.outcome) for r in runs], dtype=np.int8)
+
+
+def _seated(codes: npt.NDArray[np.int8]) -> BoolArray:
+    return np.asarray(codes == int(Outcome.SEATED))
+
+
+def _ambiguous(sharp: Sequence[EngineRun], rounded: Sequence[EngineRun]) -> BoolArray:
+    s, r = _codes(sharp), _codes(rounded)
+    unresolved = (s == int(Outcome.UNRESOLVED)) | (r == int(Outcome.UNRESOLVED))
+    return np.asarray((_seated(s) != _seated(r)) | unresolved)
+
+
+def _xface_end(design: FaceDesign, x0: float, theta0: float, physics: Physics) -> XfaceEnd:
+    p = predict(design, x0 * design.width, theta0, physics=physics, margins=False)
+    return XfaceEnd(p.outcome, p.reason, p.phi_b, p.phi_m, p.pivot_m[1] / design.width)
+
+
+def crosscheck(
+    design: FaceDesign,
+    physics: Physics | None = None,
+    *,
+    grid: int | None = 41,
+    cells: Sequence[tuple[float, float]] | None = None,
+    settings: EngineSettings = DEFAULT_ENGINE,
+    rounding: float = DEFAULT_ROUNDING,
+    converged: bool = False,
+    workers: int | None = None,
+    progress: Progress | None = None,
+) -> CrosscheckResult:
+    """Run xface and Chipmunk2D on the same cells and compare them.
+
+    Parameters
+    ----------
+    design, physics
+        The dock (default physics: the paper's, ``Physics()``).
+    grid : int, default 41
+        Cells of :func:`xface_core.acceptance_map`'s grid (rows x0 from -D to D, columns
+        theta0 from -pi/2 to pi/2, symmetric theta grid); ignored when ``cells`` is given.
+    cells : sequence of (x0, theta0), optional
+        Explicit cells instead of a grid (x0 in units of D).
+    settings : EngineSettings
+        The engine's settings (step, slop, tolerances; see :mod:`~.scene`).
+    rounding : float, default 0.002
+        Corner radius (D) of each cell's second engine run.
+    converged : bool
+        Halve the step until the engine's map (sharp and rounded outcomes) stops changing,
+        at most three times; cells still changing at the last halving count as ambiguous.
+    workers : int, optional
+        Processes for the engine (default: one per core; 1 runs in this process).
+    progress : callable(done, total, seconds), optional
+        Called as engine runs finish (:func:`stderr_progress` prints an estimate).
+
+    Examples
+    --------
+    >>> from xface_core import x_face
+    >>> r = crosscheck(x_face(0.25, 2.0), cells=[(0.0, 0.0)], workers=1)
+    >>> r.agreement, r.false_seated, r.n_ambiguous
+    (1.0, 0, 0)
+    """
+    phys = Physics() if physics is None else physics
+    start = time.monotonic()
+    if cells is not None:
+        arr = np.asarray(cells, dtype=np.float64).reshape(-1, 2)
+        x0, theta0, n_grid = arr[:, 0].copy(), arr[:, 1].copy(), None
+    else:
+        if grid is None:
+            raise ValueError("give a grid size or cells")
+        x0, theta0 = grid_cells(grid)
+        n_grid = grid
+    sharp, rounded = _engine_pass(design, phys, x0, theta0, settings, rounding, workers, progress)
+    history: list[tuple[float, int]] = []
+    changed = np.zeros(x0.size, dtype=bool)
+    is_converged: bool | None = None
+    used = settings
+    if converged:
+        is_converged = False
+        for _ in range(MAX_HALVINGS):
+            finer = used.with_step(used.step / 2.0)
+            f_sharp, f_rounded = _engine_pass(
+                design, phys, x0, theta0, finer, rounding, workers, progress
+            )
+            changed = (_codes(f_sharp) != _codes(sharp)) | (_codes(f_rounded) != _codes(rounded))
+            history.append((finer.step, int(changed.sum())))
+            sharp, rounded, used = f_sharp, f_rounded, finer
+            if not changed.any():
+                is_converged = True
+                break
+    ambiguous = _ambiguous(sharp, rounded) | changed
+    ours = predict_batch(design, x0 * design.width, theta0, physics=phys).outcome
+    ours = np.asarray(ours, dtype=np.int8)
+    engine = _codes(sharp)
+    differ = ~ambiguous & (_seated(ours) != _seated(engine))
+    disagreements = tuple(
+        Disagreement(
+            index=int(i),
+            x0=float(x0[i]),
+            theta0=float(theta0[i]),
+            xface=_xface_end(design, float(x0[i]), float(theta0[i]), phys),
+            engine=sharp[i],
+            engine_rounded=rounded[i],
+        )
+        for i in np.flatnonzero(differ)
+    )
+    return CrosscheckResult(
+        design=design,
+        physics=phys,
+        settings=used,
+        rounding=rounding,
+        x0=x0,
+        theta0=theta0,
+        grid=n_grid,
+        xface=ours,
+        engine=engine,
+        engine_rounded=_codes(rounded),
+        ambiguous=ambiguous,
+        sharp_runs=tuple(sharp),
+        rounded_runs=tuple(rounded),
+        disagreements=disagreements,
+        converged=is_converged,
+        step_history=tuple(history),
+        seconds=time.monotonic() - start,
+    )
+
+
+def _run_json(run: EngineRun) -> dict[str, object]:
+    return {
+        "outcome": run.outcome.name,
+        "reason": run.reason,
+        "phi_b": run.phi_b,
+        "phi_m": run.phi_m,
+        "y_m": run.y_m,
+        "descent": run.descent,
+        "steps": run.steps,
+        "hit_budget": run.hit_budget,
+    }
+
+
+def result_json(result: CrosscheckResult) -> dict[str, object]:
+    """The report as plain JSON types (what ``xface crosscheck --json`` prints)."""
+    names = np.array([o.name for o in Outcome])
+    d = result.design
+    s = result.settings
+    m_xface, m_engine = result.m_values()
+    return {
+        "face": d.kind,
+        "h_over_d": d.h_over_d,
+        "r_p": d.r_p,
+        "physics": result.physics.as_dict(),
+        "grid": result.grid,
+        "cells": result.n_cells,
+        "engine": {
+            "step": s.step,
+            "slop": s.slop,
+            "iterations": s.iterations,
+            "correction": s.correction,
+            "rounding": result.rounding,
+            "angle_tol": s.angle_tol,
+            "position_tol": s.position_tol,
+            "stall_speed": s.stall_speed,
+            "max_travel": s.max_travel,
+        },
+        "converged": result.converged,
+        "step_history": [{"step": st, "changed": n} for st, n in result.step_history],
+        "agreement": _finite_or_none(result.agreement),
+        "outcome_agreement": _finite_or_none(result.outcome_agreement),
+        "unambiguous": result.n_unambiguous,
+        "ambiguous": result.n_ambiguous,
+        "false_seated": result.false_seated,
+        "false_failures": result.false_failures,
+        "M": {"xface": m_xface, "engine": m_engine},
+        "seconds": result.seconds,
+        "disagreements": [
+            {
+                "index": g.index,
+                "x0": g.x0,
+                "theta0": g.theta0,
+                "kind": g.kind,
+                "xface": {
+                    "outcome": g.xface.outcome.name,
+                    "reason": g.xface.reason,
+                    "phi_b": g.xface.phi_b,
+                    "phi_m": g.xface.phi_m,
+                    "y_m": g.xface.y_m,
+                },
+                "engine": _run_json(g.engine),
+                "engine_rounded": _run_json(g.engine_rounded),
+            }
+            for g in result.disagreements
+        ],
+        "x0": result.x0.tolist(),
+        "theta0": result.theta0.tolist(),
+        "xface_outcomes": names[result.xface].tolist(),
+        "engine_outcomes": names[result.engine].tolist(),
+        "engine_rounded_outcomes": names[result.engine_rounded].tolist(),
+        "ambiguous_cells": result.ambiguous.tolist(),
+    }
+
+
+def _finite_or_none(value: float) -> float | None:
+    return value if math.isfinite(value) else None
