@@ -114,3 +114,13 @@ def test_width_scales_lengths_not_outcomes() -> None:
     unit = xf.predict(xf.x_face(0.5, 1.0), 0.3, 0.1)
     assert small.outcome is unit.outcome
     assert small.pivot_m[1] == pytest.approx(unit.pivot_m[1] * 1e-3, rel=1e-12)
+
+
+def test_a_start_below_the_seat_height_ends_where_it_started() -> None:
+    # Before: the run was "stopped at the seat height" above its start, a negative descent.
+    p = xf.predict(xf.v_face(0.28, 44.8), 0.75, 1.33)
+    assert p.outcome is xf.Outcome.BAD_MATE
+    assert p.reason == xf.Reason.BELOW_SEAT.text
+    assert p.pivot_m[1] == p.y_start
+    assert p.path is not None
+    assert p.path.descent.min() >= 0.0

@@ -191,7 +191,9 @@ def approach(
             end_run(run, path, path_pairs, work.act, O_NO_CONTACT, R_NO_CONTACT, False)
         return
     if run.y_m - d < run.y_floor:
-        run.y_m = run.y_floor
+        # Stop at the seat height, or where the pivot already is if it started below it (a
+        # start below the seat height cannot seat: the pivot only descends).
+        run.y_m = min(run.y_m, run.y_floor)
         end_run(run, path, path_pairs, work.act, O_BAD_MATE, R_BELOW_SEAT, False)
         return
     run.y_m -= d
