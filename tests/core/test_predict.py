@@ -124,3 +124,30 @@ def test_a_start_below_the_seat_height_ends_where_it_started() -> None:
     assert p.pivot_m[1] == p.y_start
     assert p.path is not None
     assert p.path.descent.min() >= 0.0
+
+
+@pytest.mark.parametrize(
+    ("design", "x0", "theta0"),
+    [
+        (xf.x_face(0.25, 2.0), 0.3, 0.2),
+        (xf.v_face(0.5, 1.0), -0.2, 0.3),
+        (xf.s_face(0.5, 1.0), 0.1, -0.2),
+    ],
+)
+def test_a_start_exactly_at_first_contact_is_not_interpenetrating(
+    design: xf.FaceDesign, x0: float, theta0: float
+) -> None:
+    # Before: rounding put a vertex 1e-16 D inside and about half such starts were INVALID.
+    p = xf.predict(design, x0, theta0)
+    assert p.path is not None
+    at_contact = float(p.path.pivot_m[1, 1])  # the state at the first contact
+    q = xf.predict(design, x0, theta0, y_start=at_contact)
+    assert q.outcome is p.outcome
+
+
+def test_a_start_1e_6_inside_is_interpenetrating() -> None:
+    design = xf.x_face(0.25, 2.0)
+    p = xf.predict(design, 0.3, 0.2)
+    assert p.path is not None
+    q = xf.predict(design, 0.3, 0.2, y_start=float(p.path.pivot_m[1, 1]) - 1e-6)
+    assert q.outcome is xf.Outcome.INVALID_INPUT

@@ -43,6 +43,10 @@ from .records import (
 MOVES = 0
 BLOCKED = 1
 
+#: Touching tolerances a start is lifted by before it counts as interpenetrating (the
+#: touching window of the contact search reaches 4 below a contact).
+START_LIFT = 4.0
+
 
 @njit(cache=True, nogil=True)  # allocates below: needs NRT
 def start_run(
@@ -82,7 +86,11 @@ def start_run(
         run.reason = R_NONFINITE
     elif abs(x0) > L:
         end_run(run, path, path_pairs, work.act, O_OUT_OF_REACH, R_OUT_OF_REACH, False)
-    elif overlapping(model.base_edges, model.moving_edges, 0.0, theta0, x0, y_start):
+    elif overlapping(
+        model.base_edges, model.moving_edges, 0.0, theta0, x0, y_start + START_LIFT * opts.touch_tol
+    ):
+        # Overlapping even when lifted by a few touching tolerances: a real interpenetration,
+        # not a start exactly at contact (whose rounding may put a vertex 1e-16 D inside).
         end_run(run, path, path_pairs, work.act, O_INVALID, R_OVERLAP, False)
     else:
         run.y_floor = math.sqrt(L * L - x0 * x0) - opts.seat_tol * max(1.0, L)
