@@ -134,8 +134,9 @@ class EngineSettings:
     stall_window: float = 0.05
     """Window of the stall test, in D of free descent."""
     stall_speed: float = 1e-3
-    """A run stalls when its metric displacement over the window is below this fraction of
-    the free descent over the window."""
+    """A run stalls when its mean state over the last window lies closer than this fraction
+    of one window's free descent to its mean state over the window before (in the metric of
+    the moments: D for the pivot, l rad for the angles)."""
     check_every: int = 25
     """Steps between two checks (stall, seat floor, free flight)."""
     max_travel: float = 500.0
@@ -295,7 +296,7 @@ def classify(
 ) -> tuple[Outcome, str] | None:
     """The outcome of an engine state, or None while the run must go on.
 
-    ``stalled``: the metric displacement over the last window was below the stall speed;
+    ``stalled``: the mean state moved less than the stall speed allows between two windows;
     ``clear_ahead``: no contact lies ahead along a straight descent; ``had_contact``: the
     parts have touched. Lengths in D, angles in rad.
 
@@ -499,41 +500,60 @@ def run_cell(
     return _simulate(scene, design.mated_distance, x0, y0, settings)
 
 
+def _touching(scene: _Scene) -> bool:
+    """True while the moving body has a contact (an arbiter with contact points)."""
+    found: list[int] = []
+    scene.moving.each_arbiter(lambda arb: found.append(len(arb.contact_point_set.points)))
+    return any(found)
+
+
+def _moved(history: deque[tuple[float, float, float]], metric: tuple[float, float]) -> float:
+    """Metric distance between the mean states (y_M, phi_B, phi_M) of the two halves of the
+    history: a creep moves the mean, a limit cycle of the solver (contacts taking turns, seen
+    with periods of a few checks at a jam) does not."""
+    arr = np.asarray(history)
+    half = len(arr) // 2
+    dy, db, dm = arr[half:].mean(axis=0) - arr[:half].mean(axis=0)
+    return math.sqrt(dy * dy + metric[0] * db * db + metric[1] * dm * dm)
+
+
 def _simulate(scene: _Scene, L: float, x0: float, y0: float, settings: EngineSettings) -> EngineRun:
     """Step the scene until :func:`classify` decides or the budget runs out."""
     dt = settings.step / SPEED
     i_b, i_m = scene.metric
     window = max(2, round(settings.stall_window / (settings.step * settings.check_every)))
-    history: deque[tuple[float, float, float]] = deque(maxlen=window + 1)
+    history: deque[tuple[float, float, float]] = deque(maxlen=2 * window)
     max_steps = math.ceil(settings.max_travel / settings.step)
+    # Pairs overlapping by less than this count as touching in the gap tests: deeper than
+    # any overlap the engine leaves (one step of travel before a contact is found, the slop).
+    margin = 2.0 * settings.step + 10.0 * settings.slop
     jump_at = 40.0 * settings.step
     space, moving = scene.space, scene.moving
-    steps, had_contact = 0, False
+    begun = {"contacts": 0}
+    space.on_collision(
+        begin=lambda arb, sp, data: data.update(contacts=data["contacts"] + 1), data=begun
+    )
+    steps = 0
     verdict: tuple[Outcome, str] | None = None
     while verdict is None and steps < max_steps:
-        # Free flight: jump to a few steps above the next contact (or end: nothing ahead).
-        gap = _gap(scene, 2.0 * settings.slop)
-        if gap > jump_at:
-            if math.isfinite(gap):
+        if not _touching(scene):
+            # Free flight (angles frozen, pure translation): jump to a few steps above the
+            # next contact.
+            gap = _gap(scene, margin)
+            if jump_at < gap < math.inf:
                 x, y = moving.position
                 moving.position = (x, y - (gap - 4.0 * settings.step))
                 space.reindex_shapes_for_body(moving)
                 history.clear()
-            gap = _gap(scene, 2.0 * settings.slop)
-        had_contact = had_contact or gap <= 4.0 * settings.step
         for _ in range(settings.check_every):
             space.step(dt)
         steps += settings.check_every
         phi_b, phi_m, x_m, y_m = _state(scene)
         history.append((y_m, phi_b, phi_m))
-        stalled = False
-        if len(history) > window:
-            y_a, b_a, m_a = history[0]
-            moved = math.sqrt(
-                (y_m - y_a) ** 2 + i_b * (phi_b - b_a) ** 2 + i_m * (phi_m - m_a) ** 2
-            )
-            stalled = moved < settings.stall_speed * settings.stall_window
-        clear = not math.isfinite(_gap(scene, 2.0 * settings.slop))
+        stalled = len(history) == 2 * window and _moved(history, (i_b, i_m)) < (
+            settings.stall_speed * settings.stall_window
+        )
+        touching = _touching(scene)
         verdict = classify(
             phi_b=phi_b,
             phi_m=phi_m,
@@ -542,8 +562,8 @@ def _simulate(scene: _Scene, L: float, x0: float, y0: float, settings: EngineSet
             x0=x0,
             L=L,
             stalled=stalled,
-            clear_ahead=clear,
-            had_contact=had_contact,
+            clear_ahead=not touching and not math.isfinite(_gap(scene, margin)),
+            had_contact=begun["contacts"] > 0,
             settings=settings,
         )
     phi_b, phi_m, x_m, y_m = _state(scene)
