@@ -294,6 +294,12 @@ def _ambiguous(sharp: Sequence[EngineRun], rounded: Sequence[EngineRun]) -> Bool
     return np.asarray((_seated(s) != _seated(r)) | unresolved)
 
 
+def _verdicts(sharp: Sequence[EngineRun], rounded: Sequence[EngineRun]) -> npt.NDArray[np.int8]:
+    """The engine's map as the comparison reads it: -1 ambiguous, 1 seated, 0 a failure."""
+    seated = _seated(_codes(sharp)).astype(np.int8)
+    return np.where(_ambiguous(sharp, rounded), np.int8(-1), seated).astype(np.int8)
+
+
 def _xface_end(design: FaceDesign, x0: float, theta0: float, physics: Physics) -> XfaceEnd:
     p = predict(design, x0 * design.width, theta0, physics=physics, margins=False)
     return XfaceEnd(p.outcome, p.reason, p.phi_b, p.phi_m, p.pivot_m[1] / design.width)
@@ -327,8 +333,9 @@ def crosscheck(
     rounding : float, default 0.002
         Corner radius (D) of each cell's second engine run.
     converged : bool
-        Halve the step until the engine's map (sharp and rounded outcomes) stops changing,
-        at most three times; cells still changing at the last halving count as ambiguous.
+        Halve the step until the engine's map stops changing (per cell: ambiguous, SEATED or
+        a failure), at most three times; cells still changing at the last halving count as
+        ambiguous.
     workers : int, optional
         Processes for the engine (default: one per core; 1 runs in this process).
     progress : callable(done, total, seconds), optional
@@ -363,7 +370,7 @@ def crosscheck(
             f_sharp, f_rounded = _engine_pass(
                 design, phys, x0, theta0, finer, rounding, workers, progress
             )
-            changed = (_codes(f_sharp) != _codes(sharp)) | (_codes(f_rounded) != _codes(rounded))
+            changed = _verdicts(f_sharp, f_rounded) != _verdicts(sharp, rounded)
             history.append((finer.step, int(changed.sum())))
             sharp, rounded, used = f_sharp, f_rounded, finer
             if not changed.any():

@@ -31,34 +31,46 @@ The moments are ``I = l^2`` (times ``max(1, 1/ratio)`` and the ratio) with ``l``
 polygon vertex from its pivot, so that the M-metric step bound (no point of the moving part
 moves more than about one free step per step) holds for rotations as well.
 
-**Artefacts and their controls (defaults of** :class:`EngineSettings` **and why).**
+**Artefacts and their controls (defaults of** :class:`EngineSettings` **and why).** The
+evidence is a study on the two flattest paper designs (V and S, H/D 0.0625, r_p 1, 21 x 21
+cells, sharp and rounded runs), tabulated in ``docs/crosscheck.md``.
 
-- *Step size* ``step = 2e-4 D`` of free descent per step (``dt = step / V``). New contacts are
-  found after they happen (no speculative contacts), so a step lets a vertex enter by up to
-  about one step: kept to twice the slop and ten times below the rounding radius. The
-  ``converged`` option of :func:`xface_core.crosscheck.crosscheck` halves it until the map
-  stops changing; the default was chosen where halving changed no cell of the paper's V and S
-  designs (``docs/crosscheck.md``).
-- *Collision slop* ``slop = 1e-4 D`` (Chipmunk's default is 0.1 length units, a tenth of a
-  face here): the overlap left uncorrected. Far below the classification tolerances.
+- *Step size* ``step = 1e-4 D`` of free descent per step (``dt = step / V``). New contacts are
+  found after they happen (Chipmunk has no speculative contacts), so a step lets a vertex
+  enter by up to about one step: kept twenty times below the rounding radius. Halving it to
+  5e-5 D changed no cell of the V design and only 4 cells' sharp runs of the S design (each a
+  vertex meeting a vertex; the rounded runs changed nowhere). The ``converged`` option of
+  :func:`xface_core.crosscheck.crosscheck` halves it until the map stops changing.
+- *Collision slop* ``slop = 1e-6 D`` (Chipmunk's default is 0.1 length units, a tenth of a
+  face here): the overlap left uncorrected. It matters more than the step: a vertex sliding
+  on an edge sits one slop deep, and near flush edges or at the end of an edge that depth is
+  enough to catch the neighbouring edge and jam. At 1e-4 D, 9-11 sharp cells per design
+  flipped with every halving of the step and 10 V cells jammed that seat at 1e-6; at 1e-6 and
+  1e-7 D the maps agree but for one vertex-on-vertex cell.
 - *Penetration and joint correction* ``correction = 0.2``: the fraction of the overlap beyond
   the slop (and of the joints' drift) removed per step (Box2D's Baumgarte factor; Chipmunk's
-  default removes 10 % per 1/60 s, which at this step would be 0.6 % per step and let
-  overlaps accumulate).
-- *Solver iterations* ``iterations = 40`` (default 10): multi-contact projections need them
-  to converge; raising them further changed no cell.
+  default removes 10 % per 1/60 s, which at this step would be about 0.06 % per step). 0.05 and 0.5
+  change at most one sharp cell.
+- *Solver iterations* ``iterations = 40`` (Chipmunk's default is 10): multi-contact
+  projections need them to converge; 10 and 100 change at most one sharp cell.
 - *Corner rounding* ``corner_radius = 0`` (sharp). :func:`~xface_core.crosscheck.crosscheck`
   runs every cell twice, sharp and with ``0.002 D`` rounding (morphological opening then
   closing of each polygon, arcs of 16 facets per quarter turn, so the flat edges stay where
   they are), and reports the cell AMBIGUOUS when the two disagree: a vertex meeting a vertex
   is decided by which side of the corner the contact normal falls, and 0.002 D of rounding,
-  far below any machining tolerance, is enough to flip it.
+  far below any machining tolerance, is enough to flip it. Sharp runs carry one more
+  artefact: a non-convex polygon is a union of convex pieces, and where a piece's seam meets
+  a concave vertex (the bottom of a V notch) a corner of the other part can be pushed by the
+  piece's own corner instead of the notch's flank. The rounded runs are the robust ones: no
+  setting above changed a rounded cell's seating.
 - *Travel budget*: a run ends on its own terms (stall, below the seat, passed), not after a
-  fixed time. The descent is bounded by the seat floor; the stall test allows creeps down to
-  ``stall_speed = 1e-3`` of the free speed in the metric above (at r_p = 0 the parts may turn
-  1 rad for 0.02 D of descent: that creep moves at about 1/50 of the free speed). The time
-  budget ``max_travel = 500 D`` of free descent (2.5 million steps) is a safety net; a run
-  that hits it is UNRESOLVED (``hit_budget``) and counted as ambiguous, never as "slipped".
+  fixed time. The descent is bounded by the seat floor; the stall test compares the mean
+  state of two consecutive windows (so that a solver limit cycle at a jam, contacts taking
+  turns every few steps, counts as a stall) and allows creeps down to ``stall_speed = 1e-3``
+  of the free speed in the metric above (at r_p = 0 the parts may turn 1 rad for 0.02 D of
+  descent: that creep moves at about 1/50 of the free speed). The time budget ``max_travel =
+  500 D`` of free descent (5 million steps) is a safety net; a run that hits it is UNRESOLVED
+  (``hit_budget``) and counted as ambiguous, never as "slipped".
 - *Free flight* (no contact, angles frozen, pure translation) is jumped over exactly: the
   vertical gap to the next contact is computed from the polygons and the moving body is
   moved to a few steps above it. The same gap test decides PASSED and NO_CONTACT.
@@ -116,9 +128,9 @@ DEFAULT_ROUNDING = 2e-3
 class EngineSettings:
     """Settings of one Chipmunk2D run (lengths in units of D; see the module docstring)."""
 
-    step: float = 2e-4
+    step: float = 1e-4
     """Free descent per step (D); the time step is ``step / SPEED``."""
-    slop: float = 1e-4
+    slop: float = 1e-6
     """Chipmunk's collision slop (D): overlap left uncorrected."""
     correction: float = 0.2
     """Fraction of the overlap beyond the slop, and of the joints' drift, removed per step."""

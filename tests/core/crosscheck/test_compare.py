@@ -75,3 +75,13 @@ def test_converged_halves_the_step_until_nothing_changes() -> None:
     assert r.converged is True
     assert r.step_history == ((2e-4, 0),)
     assert r.settings.step == 2e-4
+
+
+@pytest.mark.slow
+def test_x_face_map_agrees_with_the_engine() -> None:
+    # Single contacts along the whole path: the issue saw 99.8-100 % agreement on X-Faces
+    # with r_p >= 1, and a false SEATED is the one answer a docking predictor must not give.
+    r = crosscheck(X_FACE, grid=11)
+    assert r.false_seated == 0
+    assert r.agreement >= 0.99
+    assert r.n_ambiguous <= 2
