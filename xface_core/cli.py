@@ -405,8 +405,8 @@ def _crosscheck_lines(face: str, r: Any) -> list[str]:
         ),
     ]
     for step, changed in r.step_history:
-        lines.append(f"          step halved to {step:g} D: {changed} cells changed")
-    m_xface, m_engine = r.m_values()
+        lines.append(f"          step (and slop) halved to {step:g} D: {changed} cells changed")
+    m_xface, m_engine, m_rounded = r.m_values()
     lines += [
         (
             f"agreement {100 * r.agreement:.2f} % of {r.n_unambiguous} unambiguous cells "
@@ -414,7 +414,7 @@ def _crosscheck_lines(face: str, r: Any) -> list[str]:
         ),
         f"ambiguous {r.n_ambiguous} (sharp and rounded corners disagree, budget, or unconverged)",
         f"false SEATED {r.false_seated}   false failures {r.false_failures}",
-        f"M         xface {m_xface}, engine {m_engine} (sharp corners)",
+        f"M         xface {m_xface}, engine {m_engine} sharp / {m_rounded} rounded",
     ]
     if r.disagreements:
         lines.append("disagreements: x0 (D), theta0 (rad); final phi_b, phi_m (rad), y_m (D)")

@@ -40,13 +40,17 @@ cells, sharp and rounded runs), tabulated in ``docs/crosscheck.md``.
   enter by up to about one step: kept twenty times below the rounding radius. Halving it to
   5e-5 D changed no cell of the V design and only 4 cells' sharp runs of the S design (each a
   vertex meeting a vertex; the rounded runs changed nowhere). The ``converged`` option of
-  :func:`xface_core.crosscheck.crosscheck` halves it until the map stops changing.
+  :func:`xface_core.crosscheck.crosscheck` halves it, with the slop, until the map stops
+  changing: what matters is the ratio of the two (below).
 - *Collision slop* ``slop = 1e-6 D`` (Chipmunk's default is 0.1 length units, a tenth of a
   face here): the overlap left uncorrected. It matters more than the step: a vertex sliding
   on an edge sits one slop deep, and near flush edges or at the end of an edge that depth is
   enough to catch the neighbouring edge and jam. At 1e-4 D, 9-11 sharp cells per design
   flipped with every halving of the step and 10 V cells jammed that seat at 1e-6; at 1e-6 and
-  1e-7 D the maps agree but for one vertex-on-vertex cell.
+  1e-7 D the maps agree but for one vertex-on-vertex cell. The step must stay well above the
+  slop too: at 1e-6 D slop, steps of 1.25e-5 D and below let a sharp corner one slop deep
+  catch where its edge ends at a concave vertex, and such runs jam (at xface's jam pose, in
+  the cells checked) where the same steps at 1e-7 D slop seat; hence ``step / slop = 100``.
 - *Penetration and joint correction* ``correction = 0.2``: the fraction of the overlap beyond
   the slop (and of the joints' drift) removed per step (Box2D's Baumgarte factor; Chipmunk's
   default removes 10 % per 1/60 s, which at this step would be about 0.06 % per step). 0.05 and 0.5
