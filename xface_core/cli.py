@@ -369,7 +369,11 @@ def _cmd_crosscheck(args: argparse.Namespace) -> int:
     design = make_face(args.face, args.h_over_d, args.rp)
     if args.grid is not None and args.grid < 3:
         raise XfaceValueError(f"--grid must be an odd integer >= 3, got {args.grid}")
-    settings = DEFAULT_ENGINE if args.step is None else replace(DEFAULT_ENGINE, step=args.step)
+    settings = DEFAULT_ENGINE
+    if args.step is not None:
+        # The slop keeps its ratio to the step (docs/crosscheck.md: step / slop = 100).
+        ratio = DEFAULT_ENGINE.step / DEFAULT_ENGINE.slop
+        settings = replace(DEFAULT_ENGINE, step=args.step, slop=args.step / ratio)
     result = crosscheck(
         design,
         physics,
@@ -489,7 +493,9 @@ def build_parser() -> argparse.ArgumentParser:
     cells.add_argument("--grid", type=int, default=None, help="nodes per axis (odd; default 41)")
     cells.add_argument("--cells", type=int, default=None, help="this many random cells")
     p.add_argument("--seed", type=int, default=0, help="seed of the random cells")
-    p.add_argument("--step", type=float, default=None, help="engine step (D of free descent)")
+    p.add_argument(
+        "--step", type=float, default=None, help="engine step (D of free descent; slop = step/100)"
+    )
     p.add_argument(
         "--converged", action="store_true", help="halve the step until the map stops changing"
     )

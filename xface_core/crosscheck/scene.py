@@ -101,6 +101,7 @@ import shapely
 from pymunk import autogeometry
 
 from xface_core.codes import Outcome
+from xface_core.errors import XfaceValueError
 from xface_core.geometry import FaceDesign
 from xface_core.physics import Physics
 from xface_core.runner import start_height
@@ -162,15 +163,19 @@ class EngineSettings:
         for name in ("step", "slop", "stall_window", "stall_speed", "max_travel"):
             value = getattr(self, name)
             if not (isinstance(value, float | int) and 0.0 < value < math.inf):
-                raise ValueError(f"EngineSettings.{name} must be finite and > 0, got {value!r}")
+                raise XfaceValueError(
+                    f"EngineSettings.{name} must be finite and > 0, got {value!r}"
+                )
         if not 0.0 < self.correction <= 1.0:
-            raise ValueError(f"EngineSettings.correction must be in (0, 1], got {self.correction}")
+            raise XfaceValueError(
+                f"EngineSettings.correction must be in (0, 1], got {self.correction}"
+            )
         if not 0.0 <= self.corner_radius < 0.1:
-            raise ValueError(
+            raise XfaceValueError(
                 f"EngineSettings.corner_radius must be in [0, 0.1), got {self.corner_radius}"
             )
         if self.iterations < 1 or self.check_every < 1:
-            raise ValueError("EngineSettings.iterations and check_every must be >= 1")
+            raise XfaceValueError("EngineSettings.iterations and check_every must be >= 1")
 
     def with_step(self, step: float) -> EngineSettings:
         """The same settings at another step size."""

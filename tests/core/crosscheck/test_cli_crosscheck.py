@@ -34,7 +34,9 @@ def test_json_report(capsys: pytest.CaptureFixture[str]) -> None:
     assert len(out["xface_outcomes"]) == len(out["engine_outcomes"]) == 2
 
 
-@pytest.mark.parametrize("argv", [["--cells", "0"], ["--grid", "1"], ["--friction", "-1"]])
+@pytest.mark.parametrize(
+    "argv", [["--cells", "0"], ["--grid", "1"], ["--friction", "-1"], ["--step", "0"]]
+)
 def test_bad_arguments_exit_2(argv: list[str], capsys: pytest.CaptureFixture[str]) -> None:
     assert main([*ARGS, *argv]) == 2
     assert capsys.readouterr().err.startswith("xface: error: ")
