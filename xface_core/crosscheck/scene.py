@@ -48,9 +48,9 @@ cells, sharp and rounded runs), tabulated in ``docs/crosscheck.md``.
   enough to catch the neighbouring edge and jam. At 1e-4 D, 9-11 sharp cells per design
   flipped with every halving of the step and 10 V cells jammed that seat at 1e-6; at 1e-6 and
   1e-7 D the maps agree but for one vertex-on-vertex cell. The step must stay well above the
-  slop too: at 1e-6 D slop, steps of 1.25e-5 D and below let a sharp corner one slop deep
-  catch where its edge ends at a concave vertex, and such runs jam (at xface's jam pose, in
-  the cells checked) where the same steps at 1e-7 D slop seat; hence ``step / slop = 100``.
+  slop too: at 1e-6 D slop, a step of 1.25e-5 D let a sharp corner one slop deep catch where
+  its edge ends at a concave vertex, and the runs checked jammed (at xface's jam pose) where
+  the same step at 1e-7 D slop seats; hence ``step / slop = 100``.
 - *Penetration and joint correction* ``correction = 0.2``: the fraction of the overlap beyond
   the slop (and of the joints' drift) removed per step (Box2D's Baumgarte factor; Chipmunk's
   default removes 10 % per 1/60 s, which at this step would be about 0.06 % per step). 0.05 and 0.5
