@@ -21,13 +21,16 @@ from .codes import Outcome, Reason
 from .contact import pair_table
 from .errors import InputError
 from .geometry import FaceDesign
-from .physics import DEFAULT_SETTINGS, Physics, SolverSettings
+from .physics import Physics, SolverSettings
 from .result import AlignmentPath, Counters, Prediction
 
 __all__ = [
+    "MAX_OFFSET",
     "BatchResult",
+    "check_pose",
     "engine_model",
     "predict_batch",
+    "run_flat",
     "simulate_pose",
     "start_height",
     "start_heights",
@@ -76,7 +79,8 @@ def start_heights(design: FaceDesign, theta0: npt.ArrayLike) -> FloatArray:
 def start_height(design: FaceDesign, theta0: float) -> float:
     """:func:`start_heights` for one angle (compiled: no numpy overhead per call)."""
     table = pair_table(design)
-    return table.base_top + _engine.lowest_reach(table.moving_vertices, float(theta0)) + 0.01
+    reach = _engine.lowest_reach(table.moving_vertices, float(theta0))
+    return table.base_top + reach + START_CLEARANCE
 
 
 def check_pose(design: FaceDesign, x0: float, theta0: float, y_start: float | None) -> None:
@@ -246,6 +250,3 @@ def run_flat(
     for part, res in zip(parts, results, strict=True):
         out[part] = res
     return out
-
-
-__all__ += ["DEFAULT_SETTINGS", "MAX_OFFSET", "check_pose", "run_flat"]

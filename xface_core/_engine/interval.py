@@ -98,17 +98,21 @@ def start_run(
 
 
 @njit_no_refcount
-def _hold_cut_contact(
+def _one_contact_with_friction(
     model: Model, opts: Options, run: Run, work: Work, nc: int, v0b: float, v0m: float
-) -> tuple[int, float, float]:
-    """With friction, one sliding contact: the frictional rate turns away from the
-    frictionless one, so a touching contact that the frictionless rate cleared may now be
-    cut into. Hold the one cut deepest as well; returns ``(n_active, v_b, v_m)``."""
+) -> tuple[bool, int, float, float]:
+    """Friction states for one active contact, and the contact it makes necessary.
+
+    Chooses the contact's slip state (``work.slip``); False first when none is consistent
+    (a friction lock). The frictional rate turns away from the frictionless one, so a
+    touching contact that the frictionless rate cleared may now be cut into: the one cut
+    deepest is held as well. Returns ``(consistent, n_active, v_b, v_m)``.
+    """
     pb, pm, x0, ym = run.phi_b, run.phi_m, run.x0, run.y_m
     sqb, sqm = opts.sqrt_winv_b, opts.sqrt_winv_m
     act, ev, cand, mu, slip = work.act, work.ev, work.cand, opts.friction, work.slip
     if not friction_modes(model.pairs, act, 1, pb, pm, x0, ym, sqb, sqm, mu, slip, v0b, v0m):
-        return 1, v0b, v0m
+        return False, 1, v0b, v0m
     fb, fm, _, _ = velocity(model.pairs, act, 1, pb, pm, x0, ym, sqb, sqm, mu, slip)
     worst = 0.0
     for k in range(nc):
@@ -121,11 +125,9 @@ def _hold_cut_contact(
             act[1] = j
     if worst > 0.0:
         # Two contacts fix the rate; the frictionless one is the same rate.
-        v0b, v0m, _, _ = velocity(
-            model.pairs, act, 2, pb, pm, x0, ym, sqb, sqm, opts.friction, work.slip
-        )
-        return 2, v0b, v0m
-    return 1, v0b, v0m
+        v0b, v0m, _, _ = velocity(model.pairs, act, 2, pb, pm, x0, ym, sqb, sqm, mu, slip)
+        return True, 2, v0b, v0m
+    return True, 1, v0b, v0m
 
 
 @njit(cache=True, nogil=True)  # allocates below: needs NRT
@@ -150,24 +152,18 @@ def begin_interval(
     status, n_new, v0b, v0m = choose_motion(
         model.pairs, work.ev, work.cand, nc, pb, pm, x0, ym, sqb, sqm, work.act
     )
-    if status == MOVES and n_new == 1 and opts.friction > 0.0:
-        n_new, v0b, v0m = _hold_cut_contact(model, opts, run, work, nc, v0b, v0m)
     if status == MOVES and n_new > 0 and opts.friction > 0.0:
-        if not friction_modes(
-            model.pairs,
-            work.act,
-            n_new,
-            pb,
-            pm,
-            x0,
-            ym,
-            sqb,
-            sqm,
-            opts.friction,
-            work.slip,
-            v0b,
-            v0m,
-        ):
+        consistent = True
+        if n_new == 1:
+            consistent, n_new, v0b, v0m = _one_contact_with_friction(
+                model, opts, run, work, nc, v0b, v0m
+            )
+        if consistent and n_new == 2:
+            consistent = friction_modes(
+                model.pairs, work.act, 2, pb, pm, x0, ym, sqb, sqm, opts.friction, work.slip,
+                v0b, v0m,
+            )  # fmt: skip
+        if not consistent:
             # Friction locks the contact: no admissible slip state lets the parts descend.
             end_at_rest(run, path, path_pairs, work.act, L, opts.seat_tol, R_FRICTION_LOCK, False)
             return
