@@ -329,6 +329,12 @@ def main(args: list[str] | None = None) -> int:
     except (ConfigError, ParameterException) as exc:  # out of range, wrong type, inconsistent
         print(f"{NODE_NAME}: refusing to start: {exc}", file=sys.stderr, flush=True)
         code = 2
+    except Exception:
+        # A signal's handler shuts the context down while spin runs; spin may then fail
+        # inside rcl ("failed to initialize wait set: the given context is not valid")
+        # instead of returning. Once the context is down that is the shutdown itself.
+        if rclpy.ok():
+            raise
     finally:
         if node is not None:
             node.destroy_node()
