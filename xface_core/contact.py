@@ -16,7 +16,17 @@ col   meaning
 3-6   edge start and end (body frame of the edge's part)
 7-8   outward unit normal of the edge (body frame of the edge's part)
 9     layer index
+10-11 outward unit normal of the edge before the edge's start corner (same frame as 7-8)
+12-13 outward unit normal of the edge after the edge's end corner (same frame as 7-8)
+14    1 if the edge's start corner is convex (its polygon turns left there), else 0
+15    1 if the edge's end corner is convex, else 0
+16-17 unit direction from the vertex to the next vertex of its polygon (vertex's frame)
+18-19 unit direction from the vertex to the previous vertex of its polygon
 ====  =================================================================================
+
+The neighbours' normals let the engine tell, near a corner, whether a vertex behind the
+edge's line is inside the other part (behind both lines of a convex corner) or only beside
+it (behind one line, in front of the other: possible at a corner sharper than 90 degrees).
 """
 
 from __future__ import annotations
@@ -68,16 +78,37 @@ def _edges(poly: FloatArray, layer: int) -> FloatArray:
     return np.column_stack((poly, nxt, np.full(len(poly), float(layer))))
 
 
+#: Columns of a pair row (see the module docstring).
+PAIR_COLUMNS = 20
+
+
+def _unit(v: FloatArray) -> FloatArray:
+    return np.asarray(v / np.hypot(v[:, 0], v[:, 1])[:, None], dtype=np.float64)
+
+
 def _pairs(vertices: FloatArray, edges: FloatArray, kind: int) -> FloatArray:
+    """Every vertex (of a closed polygon, in order) against every edge of another closed
+    polygon's edges (in order)."""
+    to_next = _unit(np.roll(vertices, -1, axis=0) - vertices)
+    to_prev = _unit(np.roll(vertices, 1, axis=0) - vertices)
+    d = edges[:, 2:4] - edges[:, 0:2]
+    length = np.hypot(d[:, 0], d[:, 1])
+    # A counter-clockwise polygon has its outside on the right of each edge.
+    normals = np.column_stack((d[:, 1] / length, -d[:, 0] / length))
+    before, after = np.roll(normals, 1, axis=0), np.roll(normals, -1, axis=0)
+    # The polygon turns left (a convex corner) where the next normal is the previous one
+    # turned counter-clockwise.
+    convex_start = before[:, 0] * normals[:, 1] - before[:, 1] * normals[:, 0] > 0.0
+    convex_end = normals[:, 0] * after[:, 1] - normals[:, 1] * after[:, 0] > 0.0
     rows = []
-    for x0, y0, x1, y1, layer in edges:
-        dx, dy = x1 - x0, y1 - y0
-        length = math.hypot(dx, dy)
-        # A counter-clockwise polygon has its outside on the right of each edge.
-        nx, ny = dy / length, -dx / length
-        for vx, vy in vertices:
-            rows.append((kind, vx, vy, x0, y0, x1, y1, nx, ny, layer))
-    return np.asarray(rows, dtype=np.float64).reshape(-1, 10)
+    for j, (x0, y0, x1, y1, layer) in enumerate(edges):
+        nx, ny = normals[j]
+        for i, (vx, vy) in enumerate(vertices):
+            rows.append(
+                (kind, vx, vy, x0, y0, x1, y1, nx, ny, layer, *before[j], *after[j],
+                 float(convex_start[j]), float(convex_end[j]), *to_next[i], *to_prev[i])
+            )  # fmt: skip
+    return np.asarray(rows, dtype=np.float64).reshape(-1, PAIR_COLUMNS)
 
 
 #: Pair tables kept, least recently used first out (a table is a few kB to a few hundred kB).

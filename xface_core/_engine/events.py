@@ -17,7 +17,7 @@ from typing import NamedTuple
 
 from .integrate import rk_step
 from .motion import slip_margin, velocity
-from .pairs import pair_at
+from .pairs import clipped_gap, eval_pair, pair_at
 from .records import (
     E_BELOW_SEAT,
     E_CONTACT,
@@ -127,8 +127,13 @@ def event_value(
     which a new contact counts (D).
     """
     if kind == E_CONTACT:
-        g, _, _, _, _, _, _, _, _ = pair_at(seg.pairs, idx, pb, pm, seg.x0, ym)
-        return g - thr
+        # The gap with the edge's convex corners clipped on (scan._contact_events).
+        cb, sb, cm, sm = math.cos(pb), math.sin(pb), math.cos(pm), math.sin(pm)
+        row = seg.pairs[idx]
+        g, _, _, _, _, _, _, _, _ = eval_pair(row, cb, sb, cm, sm, seg.x0, ym)
+        if g > thr:
+            return g - thr
+        return clipped_gap(row, g, cb, sb, cm, sm, seg.x0, ym) - thr
     if kind == E_RELEASE:
         _, _, l1, l2 = segment_velocity(seg, pb, pm, ym)
         return l1 if slot == 0 else l2

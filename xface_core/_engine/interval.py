@@ -147,7 +147,18 @@ def begin_interval(
         end_run(run, path, path_pairs, work.act, O_SEATED, R_SEATED, False)
         return
     eval_all_pairs(model.pairs, pb, pm, x0, ym, work.ev)
-    nc = touching_pairs(work.ev, opts.touch_tol, work.exclude, run.n_excluded, work.cand)
+    nc = touching_pairs(
+        model.pairs,
+        work.ev,
+        pb,
+        pm,
+        x0,
+        ym,
+        opts.touch_tol,
+        work.exclude,
+        run.n_excluded,
+        work.cand,
+    )
     sqb, sqm = opts.sqrt_winv_b, opts.sqrt_winv_m
     status, n_new, v0b, v0m = choose_motion(
         model.pairs, work.ev, work.cand, nc, pb, pm, x0, ym, sqb, sqm, work.act

@@ -14,8 +14,9 @@ import math
 import numpy as np
 from numba import njit
 
-from .pairs import eval_pair, pair_at
+from .pairs import corner_distance, corner_motion_admissible, eval_pair, pair_at
 from .records import (
+    CORNER_REACH,
     FREE,
     SLIDE_NEGATIVE,
     SLIDE_POSITIVE,
@@ -254,21 +255,22 @@ def corners_hold(
     ym: float,
     vb: float,
     vm: float,
+    rays: FloatArray,
 ) -> bool:
-    """True when a short trial move along the rate leaves no corner pair penetrating.
-
-    A vertex penetrates an edge only if it lies behind the edge's line *and* within the
-    edge's span; near a convex corner this is the exact local non-penetration test.
-    """
+    """True when a short trial move along the rate keeps every corner contact (a vertex at
+    the end of an edge: two corners meeting) apart, by the exact wedge test of
+    :func:`~.pairs.corner_motion_admissible`."""
     dd = 1e-7
+    start = (pb, pm, ym)
+    trial = (pb + dd * vb, pm + dd * vm, ym - dd)
     for k in range(n_corner):
-        g0, _, _, _, _, _, _, _, _ = pair_at(table, corner[k], pb, pm, x0, ym)
-        g, u, _, _, _, _, _, _, _ = pair_at(
-            table, corner[k], pb + dd * vb, pm + dd * vm, x0, ym - dd
-        )
-        # Compare with where the pair starts: events leave gaps of +-event_tol behind, and
-        # the trial move's second-order drift is ~dd^2; a real cut shrinks g by ~dd.
-        if g < min(g0, 0.0) - 1e-11 and -U_CORNER <= u <= 1.0 + U_CORNER:
+        i = corner[k]
+        g0, u0, _, _, _, _, _, _, _ = pair_at(table, i, pb, pm, x0, ym)
+        if (u0 < -U_CORNER or u0 > 1.0 + U_CORNER) and corner_distance(
+            table[i], g0, u0
+        ) > CORNER_REACH:
+            continue  # past the edge's end, away from its corner: no corner contact
+        if not corner_motion_admissible(table[i], u0 > 0.5, start, trial, x0, rays):
             return False
     return True
 
@@ -301,7 +303,7 @@ def choose_motion(
     for k in range(nc):
         i = cand[k]
         u = ev[i, 1]
-        if U_TOL < u < 1.0 - U_TOL:
+        if U_TOL < u < 1.0 - U_TOL and corner_distance(table[i], ev[i, 0], u) > CORNER_REACH:
             hard[nh] = i
             nh += 1
         else:
@@ -320,12 +322,13 @@ def choose_motion(
     if n_corner == 0:
         return status, nact, vb, vm
     trial = np.full(4, -1, dtype=np.int64)
+    rays = np.empty((4, 2))
     best = math.inf
     best_n = 0
     best_vb = 0.0
     best_vm = 0.0
     found = False
-    if status == 0 and corners_hold(table, corner, n_corner, pb, pm, x0, ym, vb, vm):
+    if status == 0 and corners_hold(table, corner, n_corner, pb, pm, x0, ym, vb, vm, rays):
         found = True
         best = (vb * vb if sqb > 0.0 else 0.0) / max(sqb * sqb, TINY) + vm * vm / (sqm * sqm)
         best_n, best_vb, best_vm = nact, vb, vm
@@ -339,7 +342,9 @@ def choose_motion(
                 hard[nh] = alt[a]
                 hard[nh + 1] = alt[b]
                 st, na, tb, tm = solve_qp(ev, hard, nh + extra, sqb, sqm, 1e-9, trial)
-                if st != 0 or not corners_hold(table, corner, n_corner, pb, pm, x0, ym, tb, tm):
+                if st != 0 or not corners_hold(
+                    table, corner, n_corner, pb, pm, x0, ym, tb, tm, rays
+                ):
                     continue
                 cost = (tb * tb if sqb > 0.0 else 0.0) / max(sqb * sqb, TINY) + tm * tm / (
                     sqm * sqm

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 
-from .records import U_CORNER, FloatArray, IntArray, njit_no_refcount
+from .records import CORNER_REACH, TOUCH_WINDOW, U_CORNER, FloatArray, IntArray, njit_no_refcount
 
 
 @njit_no_refcount
@@ -57,6 +57,214 @@ def eval_pair(
     g = nx * rx + ny * ry
     u = (rx * dx + ry * dy) / (dx * dx + dy * dy)
     return g, u, a_b, a_m, beta, px, py, nx, ny
+
+
+@njit_no_refcount
+def adjacent_gap(
+    row: FloatArray, cb: float, sb: float, cm: float, sm: float, x0: float, y_m: float, at_end: bool
+) -> tuple[float, bool]:
+    """The pair's vertex against the line of the edge next to one corner of its edge.
+
+    Returns ``(g_adj, convex)``: the signed distance (D) of the vertex from the line of the
+    edge that meets this pair's edge at its end corner (``at_end``) or start corner, along
+    that edge's outward normal, and whether that corner is convex. Near a convex corner a
+    vertex is inside the other part only if it is behind both lines (g < 0 and g_adj < 0).
+    """
+    vx, vy = row[1], row[2]
+    cx, cy = (row[5], row[6]) if at_end else (row[3], row[4])
+    nx, ny = (row[12], row[13]) if at_end else (row[10], row[11])
+    convex = (row[15] if at_end else row[14]) > 0.5
+    if row[0] == 0.0:
+        # Moving vertex against a base corner.
+        px = x0 - (cm * vx - sm * vy)
+        py = y_m - (sm * vx + cm * vy)
+        wx, wy = cb * cx - sb * cy, sb * cx + cb * cy
+        wnx, wny = cb * nx - sb * ny, sb * nx + cb * ny
+    else:
+        # Base vertex against a moving corner.
+        px = cb * vx - sb * vy
+        py = sb * vx + cb * vy
+        wx, wy = x0 - (cm * cx - sm * cy), y_m - (sm * cx + cm * cy)
+        wnx, wny = -(cm * nx - sm * ny), -(sm * nx + cm * ny)
+    return wnx * (px - wx) + wny * (py - wy), convex
+
+
+@njit_no_refcount
+def beyond_convex_corner(
+    row: FloatArray, cb: float, sb: float, cm: float, sm: float, x0: float, y_m: float, tol: float
+) -> bool:
+    """Is the pair's vertex past a convex corner of its edge, on the outer side (to within
+    ``tol``, D) of the line of the edge that meets this one there?
+
+    Near a convex corner the other part is the intersection of the two edges' inner
+    half-planes: a vertex behind this edge's line but outside the neighbour's is outside the
+    part (for example sliding along the neighbour), so this pair's gap is no contact.
+    """
+    g_start, convex_start = adjacent_gap(row, cb, sb, cm, sm, x0, y_m, False)
+    if convex_start and g_start > -tol:
+        return True
+    g_end, convex_end = adjacent_gap(row, cb, sb, cm, sm, x0, y_m, True)
+    return convex_end and g_end > -tol
+
+
+@njit_no_refcount
+def clipped_gap(
+    row: FloatArray, g: float, cb: float, sb: float, cm: float, sm: float, x0: float, y_m: float
+) -> float:
+    """The pair's gap ``g`` (D) with the edge's convex corners clipped on:
+    ``max(g, gap to the neighbour's line at each convex end)``.
+
+    Near a convex corner the other part is the intersection of the two edges' inner
+    half-planes, so this is negative exactly when the vertex is inside it there. A vertex
+    that passes over a corner and into the edge's span is then one crossing of this
+    function, where the plain gap crosses twice (out past the corner, back in) and can do so
+    inside one integration step unseen.
+    """
+    g_start, convex_start = adjacent_gap(row, cb, sb, cm, sm, x0, y_m, False)
+    if convex_start:
+        g = max(g, g_start)
+    g_end, convex_end = adjacent_gap(row, cb, sb, cm, sm, x0, y_m, True)
+    if convex_end:
+        g = max(g, g_end)
+    return g
+
+
+@njit_no_refcount
+def meets_part(
+    row: FloatArray,
+    u: float,
+    cb: float,
+    sb: float,
+    cm: float,
+    sm: float,
+    x0: float,
+    y_m: float,
+    tol: float,
+) -> bool:
+    """Would the pair's vertex, behind its edge's line at edge parameter ``u``, be inside the
+    other part (near this edge)?
+
+    Past a convex end of the edge the neighbouring edge decides (:func:`beyond_convex_corner`:
+    exact at any distance along the line). Past a reflex end (a notch) the neighbour's own
+    pair takes over, and this edge counts only within ``U_CORNER`` of its end (a tip reaching
+    the bottom of a notch).
+    """
+    if u < -U_CORNER and row[14] < 0.5:
+        return False
+    if u > 1.0 + U_CORNER and row[15] < 0.5:
+        return False
+    return not beyond_convex_corner(row, cb, sb, cm, sm, x0, y_m, tol)
+
+
+@njit_no_refcount
+def corner_distance(row: FloatArray, g: float, u: float) -> float:
+    """Distance (D) from the pair's vertex to the nearer end corner of its edge, from the
+    gap ``g`` and edge parameter ``u``."""
+    length = math.hypot(row[5] - row[3], row[6] - row[4])
+    along = u if u < 0.5 else 1.0 - u
+    return math.hypot(g, along * length)
+
+
+@njit_no_refcount
+def _to_world(row: FloatArray, x: float, y: float, moving: bool, c: float, s: float, x0: float,
+              y_m: float, point: bool) -> tuple[float, float]:  # fmt: skip
+    """A body-frame point (or direction, ``point=False``) of one part in the world."""
+    wx, wy = c * x - s * y, s * x + c * y
+    if moving:
+        # The moving part's frame is turned half a turn: world = P_M - R(phi_M) r.
+        return (x0 - wx, y_m - wy) if point else (-wx, -wy)
+    return wx, wy
+
+
+@njit_no_refcount
+def _outside(nx: float, ny: float, dx: float, dy: float, tol: float) -> bool:
+    """``n . d >= -tol``: the move d does not go behind the line with normal n."""
+    return nx * dx + ny * dy >= -tol
+
+
+@njit_no_refcount
+def _side_of_all(mx: float, my: float, rays: FloatArray) -> bool:
+    """Are all four rays on the non-negative side of the line with normal m?"""
+    for k in range(4):  # noqa: SIM110 (numba compiles no generators)
+        if mx * rays[k, 0] + my * rays[k, 1] < -1e-12:
+            return False
+    return True
+
+
+@njit_no_refcount
+def corner_motion_admissible(
+    row: FloatArray,
+    at_end: bool,
+    start: tuple[float, float, float],
+    trial: tuple[float, float, float],
+    x0: float,
+    rays: FloatArray,
+) -> bool:
+    """Does a short move from ``start`` to ``trial`` (phi_B, phi_M, y_M) keep the pair's
+    vertex V and the corner K of its edge (the end corner if ``at_end``) from
+    interpenetrating? (``rays``: a (4, 2) scratch array.)
+
+    Exact to first order for vertex-on-vertex contact. Near K and V the parts are the wedges
+    W_K (the edge owner's interior angle at K) and W_V (the vertex owner's at V). With d the
+    move of V relative to K:
+    - both convex: the parts overlap iff d lies inside the cone spanned by W_K and -W_V, so
+      d is admissible iff some line through the corner has that cone on one side and d on
+      the other (a union of half-planes: the corners may slip past each other either way);
+    - K reflex (V in a notch): d must stay in the notch, on the outer side of both edges;
+    - V reflex: the same with the roles swapped.
+    """
+    moving_v = row[0] == 0.0  # kind 0: moving vertex on a base edge
+    pb0, pm0, y0 = start
+    pb1, pm1, y1 = trial
+    cv0, sv0 = (math.cos(pm0), math.sin(pm0)) if moving_v else (math.cos(pb0), math.sin(pb0))
+    ck0, sk0 = (math.cos(pb0), math.sin(pb0)) if moving_v else (math.cos(pm0), math.sin(pm0))
+    cv1, sv1 = (math.cos(pm1), math.sin(pm1)) if moving_v else (math.cos(pb1), math.sin(pb1))
+    ck1, sk1 = (math.cos(pb1), math.sin(pb1)) if moving_v else (math.cos(pm1), math.sin(pm1))
+    kx, ky = (row[5], row[6]) if at_end else (row[3], row[4])
+    v0x, v0y = _to_world(row, row[1], row[2], moving_v, cv0, sv0, x0, y0, True)
+    v1x, v1y = _to_world(row, row[1], row[2], moving_v, cv1, sv1, x0, y1, True)
+    k0x, k0y = _to_world(row, kx, ky, not moving_v, ck0, sk0, x0, y0, True)
+    k1x, k1y = _to_world(row, kx, ky, not moving_v, ck1, sk1, x0, y1, True)
+    # The move of V relative to K, judged by its direction as if V were at K: V is within
+    # CORNER_REACH of K (events leave it a few 1e-9 D off, on either side), and a direction
+    # into the corner would reach it within that distance.
+    dx = (v1x - k1x) - (v0x - k0x)
+    dy = (v1y - k1y) - (v0y - k0y)
+    tol = 1e-6 * math.hypot(dx, dy)
+    # The edge owner's wedge at K, from the edge directions in and out of K (a
+    # counter-clockwise polygon has its inside on the left): rays t_out and -t_in.
+    if at_end:
+        tin_x, tin_y = -row[8], row[7]
+        tout_x, tout_y = -row[13], row[12]
+        k_convex = row[15] > 0.5
+    else:
+        tin_x, tin_y = -row[11], row[10]
+        tout_x, tout_y = -row[8], row[7]
+        k_convex = row[14] > 0.5
+    ax, ay = _to_world(row, tout_x, tout_y, not moving_v, ck0, sk0, x0, y0, False)
+    bx, by = _to_world(row, -tin_x, -tin_y, not moving_v, ck0, sk0, x0, y0, False)
+    # The vertex owner's wedge at V: rays to its next and previous vertices.
+    nx_, ny_ = _to_world(row, row[16], row[17], moving_v, cv0, sv0, x0, y0, False)
+    px_, py_ = _to_world(row, row[18], row[19], moving_v, cv0, sv0, x0, y0, False)
+    v_convex = (-px_) * ny_ - (-py_) * nx_ > 0.0
+    if not k_convex:
+        # V sits in a notch of K's part: stay on the outer side of both of its edges (the
+        # outward normal of an edge is its direction turned clockwise).
+        return _outside(ay, -ax, dx, dy, tol) and _outside(-by, bx, dx, dy, tol)
+    if not v_convex:
+        # K sits in a notch of V's part: K (at -p relative to V) stays outside both of V's
+        # edges, V -> next (direction n_) and previous -> V (direction -p_).
+        return _outside(-ny_, nx_, dx, dy, tol) and _outside(py_, -px_, dx, dy, tol)
+    rays[0, 0], rays[0, 1] = ax, ay
+    rays[1, 0], rays[1, 1] = bx, by
+    rays[2, 0], rays[2, 1] = -nx_, -ny_
+    rays[3, 0], rays[3, 1] = -px_, -py_
+    for k in range(4):
+        for sign in (1.0, -1.0):
+            mx, my = -sign * rays[k, 1], sign * rays[k, 0]
+            if _side_of_all(mx, my, rays) and _outside(-mx, -my, dx, dy, tol):
+                return True
+    return False
 
 
 @njit_no_refcount
@@ -125,21 +333,44 @@ def fill_u_rate(table: FloatArray, pb: float, pm: float, ev: FloatArray) -> None
 
 @njit_no_refcount
 def touching_pairs(
-    ev: FloatArray, touch_tol: float, exclude: IntArray, n_ex: int, cand: IntArray
+    table: FloatArray,
+    ev: FloatArray,
+    pb: float,
+    pm: float,
+    x0: float,
+    ym: float,
+    touch_tol: float,
+    exclude: IntArray,
+    n_ex: int,
+    cand: IntArray,
 ) -> int:
-    utol = U_CORNER
+    """The pairs in contact (their indices into ``cand``; returns how many).
+
+    A pair touches when its gap is within the touching window and its vertex would be inside
+    the other part behind the edge's line (:func:`meets_part`) -- or, whatever the
+    neighbouring edge says, within ``CORNER_REACH`` of the edge's end, where two corners
+    meet and every way of staying apart is an alternative for the motion choice. Excluded
+    pairs (released or slid off at this point of the path) are left out.
+    """
+    cb, sb, cm, sm = math.cos(pb), math.sin(pb), math.cos(pm), math.sin(pm)
     nc = 0
     for i in range(ev.shape[0]):
         # Events stop a crossing just past its threshold (-touch_tol for pairs already
-        # touching), so the window reaches a little below -touch_tol.
+        # touching), so the window reaches below -touch_tol.
         g = ev[i, 0]
-        if g > touch_tol or g < -4.0 * touch_tol or ev[i, 1] < -utol or ev[i, 1] > 1.0 + utol:
+        u = ev[i, 1]
+        if g > touch_tol or g < -TOUCH_WINDOW * touch_tol or u < -0.25 or u > 1.25:
             continue
         skip = False
         for k in range(n_ex):
             if exclude[k] == i:
                 skip = True
         if skip or nc >= cand.shape[0]:
+            continue
+        row = table[i]
+        if corner_distance(row, g, u) > CORNER_REACH and not meets_part(
+            row, u, cb, sb, cm, sm, x0, ym, touch_tol
+        ):
             continue
         cand[nc] = i
         nc += 1

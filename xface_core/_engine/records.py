@@ -93,9 +93,18 @@ TINY = 1e-300
 ALIGN_TOL = 1e-9  # rad: |phi_B - phi_M| below which a sample is labelled SLIDE
 U_TOL = 1e-9  # edge-parameter slack of "inside the edge's span"
 U_CORNER = 1e-6  # edge-parameter slack within which a vertex meets an edge's end corner
+#: D: a vertex this close to an edge's end corner meets the corner (vertex on vertex): its
+#: pair is one alternative of the motion choice, never a constraint held on its own.
+CORNER_REACH = 1e-7
 CUT_DEPTH = 1e-7  # D: deeper than this, a jump to a fold cut into a contact
 MAX_TURN = 0.02  # rad per accepted step
 MAX_CAND = 16  # touching pairs considered at once
+#: Touching tolerances a pair may lie behind its edge's line and still count as touching.
+#: Every event that stops a touching pair's crossing leaves it up to one touching tolerance
+#: deeper; with a window of 4 a pair that went through four such events dropped out of the
+#: touching set and out of the contact search ("already behind its line") and the parts
+#: then cut into each other unnoticed.
+TOUCH_WINDOW = 64.0
 MAX_EXCLUDED = 8  # pairs kept out of the touching set at one point of the path
 FOLD_RISE = 1e-6  # D: a located turn's fold must lie this close to the turn's height
 FOLD_REACH = 1e-3  # D: solve_fold accepts a fold only this close to its start height

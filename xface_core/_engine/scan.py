@@ -9,10 +9,21 @@ from __future__ import annotations
 
 import math
 
-from .events import NO_EVENT, Event, Segment, Step, earlier, locate, segment_velocity, step_to
+from .events import (
+    NO_EVENT,
+    Event,
+    Segment,
+    Step,
+    earlier,
+    event_value,
+    locate,
+    segment_velocity,
+    step_to,
+)
 from .motion import slip_margin
-from .pairs import eval_pair, pair_at
+from .pairs import clipped_gap, eval_pair, pair_at
 from .records import (
+    CORNER_REACH,
     E_BELOW_SEAT,
     E_CONTACT,
     E_NONE,
@@ -24,6 +35,7 @@ from .records import (
     FREE,
     U_CORNER,
     U_TOL,
+    FloatArray,
     Options,
     Work,
     njit_no_refcount,
@@ -99,19 +111,35 @@ def _contact_events(
     at_b, at_m = step.phi_b, step.phi_m
     early_h = -1.0
     early_b, early_m = step.phi_b, step.phi_m
+    cb0, sb0, cm0, sm0 = (
+        math.cos(step.phi_b),
+        math.sin(step.phi_b),
+        math.cos(step.phi_m),
+        math.sin(step.phi_m),
+    )
     for i in range(pairs.shape[0]):
-        g1, u1, _, _, _, _, _, _, _ = eval_pair(pairs[i], cb1, sb1, cm1, sm1, x0, y1)
+        row = pairs[i]
+        g1, u1, _, _, _, _, _, _, _ = eval_pair(row, cb1, sb1, cm1, sm1, x0, y1)
         g_next[i] = g1
         u_next[i] = u1
         if (n_act > 0 and act[0] == i) or (n_act > 1 and act[1] == i):
             continue
-        if g1 > thr[i] or g_prev[i] <= thr[i]:
+        # The event function is the gap with the edge's convex corners clipped on
+        # (pairs.clipped_gap): it is never below the plain gap, so a pair whose gap is above
+        # its threshold at the step's end has not crossed, and one whose gap was above it at
+        # the start was outside then.
+        if g1 > thr[i] or clipped_gap(row, g1, cb1, sb1, cm1, sm1, x0, y1) > thr[i]:
+            continue
+        if g_prev[i] <= thr[i] and (
+            clipped_gap(row, g_prev[i], cb0, sb0, cm0, sm0, x0, step.y_m) <= thr[i]
+        ):
             continue
         # Where along the edge does the vertex cross its line? (Linear estimate; the exact
         # check follows the root finding.) Far outside the span: not a contact.
-        u_est = u_prev[i] + (u1 - u_prev[i]) * (g_prev[i] - thr[i]) / (g_prev[i] - g1)
-        if u_est < -0.25 or u_est > 1.25:
-            continue
+        if g_prev[i] > thr[i]:
+            u_est = u_prev[i] + (u1 - u_prev[i]) * (g_prev[i] - thr[i]) / (g_prev[i] - g1)
+            if u_est < -0.25 or u_est > 1.25:
+                continue
         # Not crossed yet at the earliest event found so far: it cannot come first. Crossed
         # within two event widths before it: the same moment (contacts closing together,
         # as at a seat); the next interval's touching scan picks it up without a search of
@@ -120,25 +148,74 @@ def _contact_events(
             if at_h != best.h:
                 at_b, at_m, _, _, _ = step_to(seg, step, best.h)
                 at_h = best.h
-            g, _, _, _, _, _, _, _, _ = pair_at(pairs, i, at_b, at_m, x0, step.y_m - at_h)
-            if g > thr[i]:
+            if event_value(seg, E_CONTACT, i, 0, thr[i], at_b, at_m, step.y_m - at_h) > 0.0:
                 continue
             t_early = max(best.h - 2.0 * tol, 0.0)
             if early_h != best.h:
                 early_b, early_m, _, _, _ = step_to(seg, step, t_early)
                 early_h = best.h
-            g, _, _, _, _, _, _, _, _ = pair_at(pairs, i, early_b, early_m, x0, step.y_m - t_early)
-            if g > thr[i]:
+            if (
+                event_value(seg, E_CONTACT, i, 0, thr[i], early_b, early_m, step.y_m - t_early)
+                > 0.0
+            ):
                 continue
         _, hk = locate(seg, step, tol, E_CONTACT, i, 0, thr[i])
         if best.kind != E_NONE and hk >= best.h:
             continue
         pbk, pmk, _, _, _ = step_to(seg, step, hk)
-        _, uk, _, _, _, _, _, _, _ = pair_at(pairs, i, pbk, pmk, x0, step.y_m - hk)
-        # A vertex crossing a line just beyond the edge's end is meeting the corner there
-        # (e.g. a tip reaching the bottom of a notch): that is a contact too.
-        if -U_CORNER <= uk <= 1.0 + U_CORNER:
+        gk, uk, _, _, _, _, _, _, _ = pair_at(pairs, i, pbk, pmk, x0, step.y_m - hk)
+        if _accepts_contact(row, gk, uk, thr[i]):
             best = Event(E_CONTACT, i, hk)
+    return best
+
+
+@njit_no_refcount
+def _accepts_contact(row: FloatArray, gk: float, uk: float, thr: float) -> bool:
+    """Is a located crossing of the clipped gap this edge's contact? Only if the vertex
+    crosses this edge's own line (not just a neighbour's, far from this edge's corner), and
+    within the span, past a convex end at the corner, or just past a reflex end (a tip
+    reaching the bottom of a notch)."""
+    if gk < thr - CORNER_REACH:
+        return False
+    return not ((uk < -U_CORNER and row[14] < 0.5) or (uk > 1.0 + U_CORNER and row[15] < 0.5))
+
+
+@njit_no_refcount
+def _contacts_before(opts: Options, seg: Segment, step: Step, work: Work, best: Event) -> Event:
+    """A contact that came before the event found, though the trial step's end did not show
+    it: a vertex that went in past a corner and out again within the step. At the event's
+    state no pair that started outside may be inside; one that is gets located before it.
+    """
+    thr, g_prev = work.thr, work.g_prev
+    pairs, act, n_act, x0 = seg.pairs, seg.act, seg.n_active, seg.x0
+    cb0, sb0 = math.cos(step.phi_b), math.sin(step.phi_b)
+    cm0, sm0 = math.cos(step.phi_m), math.sin(step.phi_m)
+    for _ in range(4):
+        if best.kind == E_NONE or best.h <= 0.0:
+            return best
+        head = Step(step.phi_b, step.phi_m, step.y_m, best.h)
+        eb, em, _, _, _ = step_to(seg, step, best.h)
+        earliest = best
+        for i in range(pairs.shape[0]):
+            if (n_act > 0 and act[0] == i) or (n_act > 1 and act[1] == i):
+                continue
+            if event_value(seg, E_CONTACT, i, 0, thr[i], eb, em, step.y_m - best.h) > 0.0:
+                continue
+            row = pairs[i]
+            if g_prev[i] <= thr[i] and (
+                clipped_gap(row, g_prev[i], cb0, sb0, cm0, sm0, x0, step.y_m) <= thr[i]
+            ):
+                continue  # inside at the start already: no crossing in this step
+            _, hk = locate(seg, head, opts.event_tol, E_CONTACT, i, 0, thr[i])
+            if hk >= earliest.h:
+                continue
+            pbk, pmk, _, _, _ = step_to(seg, step, hk)
+            gk, uk, _, _, _, _, _, _, _ = pair_at(pairs, i, pbk, pmk, x0, step.y_m - hk)
+            if _accepts_contact(row, gk, uk, thr[i]):
+                earliest = Event(E_CONTACT, i, hk)
+        if earliest.h == best.h:
+            return best
+        best = earliest
     return best
 
 
@@ -149,6 +226,7 @@ def find_event(opts: Options, seg: Segment, step: Step, work: Work, nb: float, n
     if opts.friction > 0.0:
         best = _slip_events(opts, seg, step, nb, nm, best)
     best = _contact_events(opts, seg, step, work, nb, nm, best)
+    best = _contacts_before(opts, seg, step, work, best)
     y1 = step.y_m - step.h
     if y1 < seg.y_floor:
         # y_M falls linearly with the descent: the crossing is known exactly.

@@ -35,6 +35,7 @@ from .records import (
     R_SPUN,
     R_STEP_LIMIT,
     TINY,
+    TOUCH_WINDOW,
     UNDECIDED,
     FloatArray,
     IntArray,
@@ -72,7 +73,7 @@ def begin_segment(
     ev, thr, g_prev, u_prev = work.ev, work.thr, work.g_prev, work.u_prev
     for i in range(ev.shape[0]):
         g = ev[i, 0]
-        thr[i] = min(g, 0.0) - tt if -4.0 * tt <= g <= tt else 0.0
+        thr[i] = min(g, 0.0) - tt if -TOUCH_WINDOW * tt <= g <= tt else 0.0
         g_prev[i] = g
         u_prev[i] = ev[i, 1]
     record(run, path, path_pairs, _phase(run), act, n)

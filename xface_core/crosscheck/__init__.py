@@ -8,17 +8,28 @@ See ``docs/crosscheck.md``.
 
 from __future__ import annotations
 
-from .compare import CrosscheckResult, Disagreement, crosscheck, random_cells
+from .compare import (
+    CrosscheckResult,
+    Disagreement,
+    EngineMap,
+    compare_with_engine,
+    crosscheck,
+    engine_map,
+    random_cells,
+)
 from .scene import DEFAULT_ENGINE, EngineRun, EngineSettings, classify, run_cell
 
 __all__ = [
     "DEFAULT_ENGINE",
     "CrosscheckResult",
     "Disagreement",
+    "EngineMap",
     "EngineRun",
     "EngineSettings",
     "classify",
+    "compare_with_engine",
     "crosscheck",
+    "engine_map",
     "random_cells",
     "run_cell",
 ]

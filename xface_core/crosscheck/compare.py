@@ -45,8 +45,11 @@ from .scene import DEFAULT_ENGINE, DEFAULT_ROUNDING, EngineRun, EngineSettings, 
 __all__ = [
     "CrosscheckResult",
     "Disagreement",
+    "EngineMap",
     "XfaceEnd",
+    "compare_with_engine",
     "crosscheck",
+    "engine_map",
     "random_cells",
     "result_json",
     "stderr_progress",
@@ -309,6 +312,142 @@ def _xface_end(design: FaceDesign, x0: float, theta0: float, physics: Physics) -
     return XfaceEnd(p.outcome, p.reason, p.phi_b, p.phi_m, p.pivot_m[1] / design.width)
 
 
+@dataclass(frozen=True)
+class EngineMap:
+    """The engine's side of a comparison: its runs over some cells, before xface is asked.
+
+    It depends only on the design's polygons, the physics and the engine's settings, so it
+    can be stored and compared with xface again after xface changes (see
+    ``scripts/accuracy_table.py``).
+    """
+
+    x0: FloatArray
+    theta0: FloatArray
+    grid: int | None
+    sharp: tuple[EngineRun, ...]
+    rounded: tuple[EngineRun, ...]
+    settings: EngineSettings
+    """The settings of the runs kept (after ``converged``'s halvings, the finest)."""
+    rounding: float
+    changed: BoolArray
+    """Cells the last halving of the step still changed (ambiguous)."""
+    converged: bool | None
+    step_history: tuple[tuple[float, int], ...]
+    seconds: float
+
+    @property
+    def ambiguous(self) -> BoolArray:
+        return _ambiguous(self.sharp, self.rounded) | self.changed
+
+
+def _cells(
+    grid: int | None, cells: Sequence[tuple[float, float]] | None
+) -> tuple[FloatArray, FloatArray, int | None]:
+    if cells is not None:
+        arr = np.asarray(cells, dtype=np.float64).reshape(-1, 2)
+        return arr[:, 0].copy(), arr[:, 1].copy(), None
+    if grid is None:
+        raise ValueError("give a grid size or cells")
+    x0, theta0 = grid_cells(grid)
+    return x0, theta0, grid
+
+
+def engine_map(
+    design: FaceDesign,
+    physics: Physics | None = None,
+    *,
+    grid: int | None = 41,
+    cells: Sequence[tuple[float, float]] | None = None,
+    settings: EngineSettings = DEFAULT_ENGINE,
+    rounding: float = DEFAULT_ROUNDING,
+    converged: bool = False,
+    workers: int | None = None,
+    progress: Progress | None = None,
+) -> EngineMap:
+    """The engine's runs over the cells (the arguments as for :func:`crosscheck`)."""
+    phys = Physics() if physics is None else physics
+    start = time.monotonic()
+    x0, theta0, n_grid = _cells(grid, cells)
+    sharp, rounded = _engine_pass(design, phys, x0, theta0, settings, rounding, workers, progress)
+    history: list[tuple[float, int]] = []
+    changed = np.zeros(x0.size, dtype=bool)
+    is_converged: bool | None = None
+    used = settings
+    if converged:
+        is_converged = False
+        for _ in range(MAX_HALVINGS):
+            # The slop goes down with the step: at a fixed slop a step of a few slops lets a
+            # corner one slop deep catch at the end of its edge (seen at 1e-6 D slop below
+            # 2e-5 D steps), an artefact of the pair, not of the step.
+            finer = replace(used, step=used.step / 2.0, slop=used.slop / 2.0)
+            f_sharp, f_rounded = _engine_pass(
+                design, phys, x0, theta0, finer, rounding, workers, progress
+            )
+            changed = _verdicts(f_sharp, f_rounded) != _verdicts(sharp, rounded)
+            history.append((finer.step, int(changed.sum())))
+            sharp, rounded, used = f_sharp, f_rounded, finer
+            if not changed.any():
+                is_converged = True
+                break
+    return EngineMap(
+        x0=x0,
+        theta0=theta0,
+        grid=n_grid,
+        sharp=tuple(sharp),
+        rounded=tuple(rounded),
+        settings=used,
+        rounding=rounding,
+        changed=changed,
+        converged=is_converged,
+        step_history=tuple(history),
+        seconds=time.monotonic() - start,
+    )
+
+
+def compare_with_engine(
+    design: FaceDesign, engine: EngineMap, physics: Physics | None = None
+) -> CrosscheckResult:
+    """xface on the engine map's cells, compared with it (``physics`` as the engine's)."""
+    phys = Physics() if physics is None else physics
+    start = time.monotonic()
+    x0, theta0 = engine.x0, engine.theta0
+    ambiguous = engine.ambiguous
+    ours = predict_batch(design, x0 * design.width, theta0, physics=phys).outcome
+    ours = np.asarray(ours, dtype=np.int8)
+    codes = _codes(engine.sharp)
+    differ = ~ambiguous & (_seated(ours) != _seated(codes))
+    disagreements = tuple(
+        Disagreement(
+            index=int(i),
+            x0=float(x0[i]),
+            theta0=float(theta0[i]),
+            xface=_xface_end(design, float(x0[i]), float(theta0[i]), phys),
+            engine=engine.sharp[i],
+            engine_rounded=engine.rounded[i],
+        )
+        for i in np.flatnonzero(differ)
+    )
+    return CrosscheckResult(
+        design=design,
+        physics=phys,
+        settings=engine.settings,
+        rounding=engine.rounding,
+        x0=x0,
+        theta0=theta0,
+        grid=engine.grid,
+        xface=ours,
+        engine=codes,
+        engine_rounded=_codes(engine.rounded),
+        ambiguous=ambiguous,
+        sharp_runs=engine.sharp,
+        rounded_runs=engine.rounded,
+        disagreements=disagreements,
+        converged=engine.converged,
+        step_history=engine.step_history,
+        seconds=engine.seconds + time.monotonic() - start,
+    )
+
+
 def crosscheck(
     design: FaceDesign,
     physics: Physics | None = None,
@@ -352,72 +491,11 @@ def crosscheck(
     >>> r.agreement, r.false_seated, r.n_ambiguous
     (1.0, 0, 0)
     """
-    phys = Physics() if physics is None else physics
-    start = time.monotonic()
-    if cells is not None:
-        arr = np.asarray(cells, dtype=np.float64).reshape(-1, 2)
-        x0, theta0, n_grid = arr[:, 0].copy(), arr[:, 1].copy(), None
-    else:
-        if grid is None:
-            raise ValueError("give a grid size or cells")
-        x0, theta0 = grid_cells(grid)
-        n_grid = grid
-    sharp, rounded = _engine_pass(design, phys, x0, theta0, settings, rounding, workers, progress)
-    history: list[tuple[float, int]] = []
-    changed = np.zeros(x0.size, dtype=bool)
-    is_converged: bool | None = None
-    used = settings
-    if converged:
-        is_converged = False
-        for _ in range(MAX_HALVINGS):
-            # The slop goes down with the step: at a fixed slop a step of a few slops lets a
-            # corner one slop deep catch at the end of its edge (seen at 1e-6 D slop below
-            # 2e-5 D steps), an artefact of the pair, not of the step.
-            finer = replace(used, step=used.step / 2.0, slop=used.slop / 2.0)
-            f_sharp, f_rounded = _engine_pass(
-                design, phys, x0, theta0, finer, rounding, workers, progress
-            )
-            changed = _verdicts(f_sharp, f_rounded) != _verdicts(sharp, rounded)
-            history.append((finer.step, int(changed.sum())))
-            sharp, rounded, used = f_sharp, f_rounded, finer
-            if not changed.any():
-                is_converged = True
-                break
-    ambiguous = _ambiguous(sharp, rounded) | changed
-    ours = predict_batch(design, x0 * design.width, theta0, physics=phys).outcome
-    ours = np.asarray(ours, dtype=np.int8)
-    engine = _codes(sharp)
-    differ = ~ambiguous & (_seated(ours) != _seated(engine))
-    disagreements = tuple(
-        Disagreement(
-            index=int(i),
-            x0=float(x0[i]),
-            theta0=float(theta0[i]),
-            xface=_xface_end(design, float(x0[i]), float(theta0[i]), phys),
-            engine=sharp[i],
-            engine_rounded=rounded[i],
-        )
-        for i in np.flatnonzero(differ)
-    )
-    return CrosscheckResult(
-        design=design,
-        physics=phys,
-        settings=used,
-        rounding=rounding,
-        x0=x0,
-        theta0=theta0,
-        grid=n_grid,
-        xface=ours,
-        engine=engine,
-        engine_rounded=_codes(rounded),
-        ambiguous=ambiguous,
-        sharp_runs=tuple(sharp),
-        rounded_runs=tuple(rounded),
-        disagreements=disagreements,
-        converged=is_converged,
-        step_history=tuple(history),
-        seconds=time.monotonic() - start,
-    )
+    engine = engine_map(
+        design, physics, grid=grid, cells=cells, settings=settings, rounding=rounding,
+        converged=converged, workers=workers, progress=progress,
+    )  # fmt: skip
+    return compare_with_engine(design, engine, physics)
 
 
 def _run_json(run: EngineRun) -> dict[str, object]:

@@ -19,6 +19,7 @@ from xface_core._engine.pairs import (
     pair_at,
     touching_pairs,
 )
+from xface_core._engine.records import TOUCH_WINDOW
 from xface_core.contact import BASE_VERTEX, MOVING_VERTEX, pair_table
 from xface_core.runner import start_height
 
@@ -191,10 +192,13 @@ def test_next_contact_skips_pairs_that_meet_the_line_beyond_the_edge() -> None:
 def test_touching_pairs_window_and_exclusions() -> None:
     tol = 1e-9
     ev = np.zeros((6, 6))
-    ev[:, 0] = [0.5 * tol, -3.9 * tol, 2 * tol, -5 * tol, 0.0, 0.0]
+    ev[:, 0] = [0.5 * tol, -3.9 * tol, 2 * tol, -(TOUCH_WINDOW + 1) * tol, 0.0, 0.0]
     ev[:, 1] = [0.5, 1.0 + 0.5e-6, 0.5, 0.5, -2e-6, 0.2]
     cand = np.full(16, -1, dtype=np.int64)
     exclude = np.array([5, -1], dtype=np.int64)
-    n = touching_pairs(ev, tol, exclude, 1, cand)
+    # Unit edges with reflex (unflagged) ends: no neighbour masks a pair.
+    table = np.zeros((6, 20))
+    table[:, 3:7] = [0.0, 0.0, 1.0, 0.0]
+    n = touching_pairs(table, ev, 0.0, 0.0, 0.0, 2.0, tol, exclude, 1, cand)
     # 2: too far, 3: too deep, 4: beyond the edge's start, 5: excluded.
     assert cand[:n].tolist() == [0, 1]
