@@ -178,6 +178,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--only", nargs="*", default=None, help='designs as "V 0.0625 1 [mu]"')
     ap.add_argument("--cache", type=Path, default=Path(".crosscheck-cache"))
     ap.add_argument("--no-cache", action="store_true")
+    ap.add_argument(
+        "--cached-only", action="store_true", help="skip designs whose engine runs are not stored"
+    )
     ap.add_argument("--out", type=Path, default=None, help="markdown file (default: stdout)")
     ap.add_argument("--json", type=Path, default=None, help="per-design summary as JSON")
     ap.add_argument("--check", action="store_true", help="exit 1 when a design misses the bar")
@@ -192,6 +195,8 @@ def main(argv: list[str] | None = None) -> int:
     rows = []
     for d in designs:
         t0 = time.monotonic()
+        if args.cached_only and not (args.cache / f"{_cache_key(d, args.grid)}.pkl").exists():
+            continue
         em = engine_map(d, args.grid, None if args.no_cache else args.cache, args.quiet)
         r = cc.compare_with_engine(d.build(), em, d.physics())
         rows.append((d, r))

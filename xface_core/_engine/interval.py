@@ -8,7 +8,7 @@ import math
 from numba import njit
 
 from .ends import Run, end_at_rest, end_run, is_seated, record
-from .motion import choose_motion, friction_modes, velocity
+from .motion import choose_motion, friction_modes, rate_keeps_contacts, velocity
 from .overlap import overlapping
 from .pairs import eval_all_pairs, fill_u_rate, next_contact, touching_pairs
 from .records import (
@@ -98,36 +98,85 @@ def start_run(
 
 
 @njit_no_refcount
-def _one_contact_with_friction(
-    model: Model, opts: Options, run: Run, work: Work, nc: int, v0b: float, v0m: float
-) -> tuple[bool, int, float, float]:
-    """Friction states for one active contact, and the contact it makes necessary.
+def _with_friction(
+    model: Model, opts: Options, run: Run, work: Work, nc: int, n_new: int, v0b: float,
+    v0m: float,
+) -> tuple[bool, int, float, float]:  # fmt: skip
+    """The active set and friction states under Coulomb friction, from the frictionless
+    choice (``n_new`` contacts in ``work.act``, rate ``(v0b, v0m)``).
 
-    Chooses the contact's slip state (``work.slip``); False first when none is consistent
-    (a friction lock). The frictional rate turns away from the frictionless one, so a
-    touching contact that the frictionless rate cleared may now be cut into: the one cut
-    deepest is held as well. Returns ``(consistent, n_active, v_b, v_m)``.
+    Friction turns the rate away from the frictionless one, so it must be checked again:
+    every active contact pushes (lambda >= 0) and slips the way its state says, and no
+    other touching pair (corners by the wedge test) is cut into. One contact: its
+    consistent slip state (sliding either way, else stuck), alone if that keeps every
+    other pair, else together with each touching pair in turn (two contacts fix the rate).
+    Two contacts: the frictionless pair if both push, else each alone. When no set is
+    consistent the parts are locked by friction: returns ``(False, ...)``.
+    Returns ``(consistent, n_active, v_b, v_m)``.
     """
     pb, pm, x0, ym = run.phi_b, run.phi_m, run.x0, run.y_m
     sqb, sqm = opts.sqrt_winv_b, opts.sqrt_winv_m
-    act, ev, cand, mu, slip = work.act, work.ev, work.cand, opts.friction, work.slip
-    if not friction_modes(model.pairs, act, 1, pb, pm, x0, ym, sqb, sqm, mu, slip, v0b, v0m):
+    table, act, ev, cand, mu, slip = (
+        model.pairs,
+        work.act,
+        work.ev,
+        work.cand,
+        opts.friction,
+        work.slip,
+    )
+    rays = work.rays
+    if n_new == 2:
+        friction_modes(table, act, 2, pb, pm, x0, ym, sqb, sqm, mu, slip, v0b, v0m)
+        vb, vm, l1, l2 = velocity(table, act, 2, pb, pm, x0, ym, sqb, sqm, mu, slip)
+        if math.isfinite(vb + vm) and l1 >= 0.0 and l2 >= 0.0:
+            return True, 2, v0b, v0m
+        # One contact pulls under friction: try each alone.
+        first, second = act[0], act[1]
+        for keep in (first, second):
+            act[0], act[1] = keep, -1
+            if _one_consistent(model, opts, run, work, nc, v0b, v0m):
+                fb, fm, _, _ = velocity(table, act, 1, pb, pm, x0, ym, sqb, sqm, mu, slip)
+                return True, 1, fb, fm
+        act[0], act[1] = first, second
+        return False, 2, v0b, v0m
+    if not friction_modes(table, act, 1, pb, pm, x0, ym, sqb, sqm, mu, slip, v0b, v0m):
         return False, 1, v0b, v0m
-    fb, fm, _, _ = velocity(model.pairs, act, 1, pb, pm, x0, ym, sqb, sqm, mu, slip)
-    worst = 0.0
+    fb, fm, _, _ = velocity(table, act, 1, pb, pm, x0, ym, sqb, sqm, mu, slip)
+    if rate_keeps_contacts(table, ev, cand, nc, act, 1, pb, pm, x0, ym, fb, fm, rays):
+        return True, 1, v0b, v0m
+    # The frictional rate cuts into a touching pair: hold one more (the deepest cut first
+    # would be a heuristic; any consistent pair is an admissible quasi-static motion, and
+    # the candidates come in a fixed order, so the choice is deterministic).
     for k in range(nc):
         j = cand[k]
         if j == act[0]:
             continue
-        short = ev[j, 4] - (ev[j, 2] * fb + ev[j, 3] * fm)
-        if short > 1e-9 * (1.0 + abs(ev[j, 4])) and short > worst:
-            worst = short
-            act[1] = j
-    if worst > 0.0:
-        # Two contacts fix the rate; the frictionless one is the same rate.
-        v0b, v0m, _, _ = velocity(model.pairs, act, 2, pb, pm, x0, ym, sqb, sqm, mu, slip)
-        return True, 2, v0b, v0m
-    return True, 1, v0b, v0m
+        act[1] = j
+        friction_modes(table, act, 2, pb, pm, x0, ym, sqb, sqm, mu, slip, fb, fm)
+        vb, vm, l1, l2 = velocity(table, act, 2, pb, pm, x0, ym, sqb, sqm, mu, slip)
+        if not (math.isfinite(vb + vm) and l1 >= 0.0 and l2 >= 0.0):
+            continue
+        if rate_keeps_contacts(table, ev, cand, nc, act, 2, pb, pm, x0, ym, vb, vm, rays):
+            return True, 2, vb, vm
+    act[1] = -1
+    return False, 1, v0b, v0m
+
+
+@njit_no_refcount
+def _one_consistent(
+    model: Model, opts: Options, run: Run, work: Work, nc: int, v0b: float, v0m: float
+) -> bool:
+    """Is the one contact ``work.act[0]`` consistent under friction (a slip state that
+    pushes and slips its way, and a rate that cuts into no other touching pair)?"""
+    pb, pm, x0, ym = run.phi_b, run.phi_m, run.x0, run.y_m
+    sqb, sqm = opts.sqrt_winv_b, opts.sqrt_winv_m
+    table, act, slip = model.pairs, work.act, work.slip
+    if not friction_modes(table, act, 1, pb, pm, x0, ym, sqb, sqm, opts.friction, slip, v0b, v0m):
+        return False
+    fb, fm, _, _ = velocity(table, act, 1, pb, pm, x0, ym, sqb, sqm, opts.friction, slip)
+    return rate_keeps_contacts(
+        table, work.ev, work.cand, nc, act, 1, pb, pm, x0, ym, fb, fm, work.rays
+    )
 
 
 @njit(cache=True, nogil=True)  # allocates below: needs NRT
@@ -164,16 +213,7 @@ def begin_interval(
         model.pairs, work.ev, work.cand, nc, pb, pm, x0, ym, sqb, sqm, work.act
     )
     if status == MOVES and n_new > 0 and opts.friction > 0.0:
-        consistent = True
-        if n_new == 1:
-            consistent, n_new, v0b, v0m = _one_contact_with_friction(
-                model, opts, run, work, nc, v0b, v0m
-            )
-        if consistent and n_new == 2:
-            consistent = friction_modes(
-                model.pairs, work.act, 2, pb, pm, x0, ym, sqb, sqm, opts.friction, work.slip,
-                v0b, v0m,
-            )  # fmt: skip
+        consistent, n_new, v0b, v0m = _with_friction(model, opts, run, work, nc, n_new, v0b, v0m)
         if not consistent:
             # Friction locks the contact: no admissible slip state lets the parts descend.
             end_at_rest(run, path, path_pairs, work.act, L, opts.seat_tol, R_FRICTION_LOCK, False)

@@ -245,6 +245,30 @@ def slip_margin(
 
 
 @njit_no_refcount
+def corner_holds(
+    table: FloatArray,
+    i: int,
+    pb: float,
+    pm: float,
+    x0: float,
+    ym: float,
+    vb: float,
+    vm: float,
+    rays: FloatArray,
+) -> bool:
+    """True when a short trial move along the rate keeps corner pair i (a vertex at the end
+    of an edge: two corners meeting) apart, by the exact wedge test of
+    :func:`~.pairs.corner_motion_admissible`."""
+    dd = 1e-7
+    g0, u0, _, _, _, _, _, _, _ = pair_at(table, i, pb, pm, x0, ym)
+    if (u0 < -U_CORNER or u0 > 1.0 + U_CORNER) and corner_distance(table[i], g0, u0) > CORNER_REACH:
+        return True  # past the edge's end, away from its corner: no corner contact
+    start = (pb, pm, ym)
+    trial = (pb + dd * vb, pm + dd * vm, ym - dd)
+    return corner_motion_admissible(table[i], u0 > 0.5, start, trial, x0, rays)
+
+
+@njit_no_refcount
 def corners_hold(
     table: FloatArray,
     corner: IntArray,
@@ -257,21 +281,56 @@ def corners_hold(
     vm: float,
     rays: FloatArray,
 ) -> bool:
-    """True when a short trial move along the rate keeps every corner contact (a vertex at
-    the end of an edge: two corners meeting) apart, by the exact wedge test of
-    :func:`~.pairs.corner_motion_admissible`."""
-    dd = 1e-7
-    start = (pb, pm, ym)
-    trial = (pb + dd * vb, pm + dd * vm, ym - dd)
+    """:func:`corner_holds` for each of the first ``n_corner`` pairs of ``corner``."""
     for k in range(n_corner):
-        i = corner[k]
-        g0, u0, _, _, _, _, _, _, _ = pair_at(table, i, pb, pm, x0, ym)
-        if (u0 < -U_CORNER or u0 > 1.0 + U_CORNER) and corner_distance(
-            table[i], g0, u0
-        ) > CORNER_REACH:
-            continue  # past the edge's end, away from its corner: no corner contact
-        if not corner_motion_admissible(table[i], u0 > 0.5, start, trial, x0, rays):
+        if not corner_holds(table, corner[k], pb, pm, x0, ym, vb, vm, rays):
             return False
+    return True
+
+
+@njit_no_refcount
+def is_corner_pair(table: FloatArray, ev: FloatArray, i: int) -> bool:
+    """Does pair i meet its edge at an end corner (vertex on vertex, or just past the end)
+    rather than inside the span? Corner pairs are alternatives, never held on their own."""
+    u = ev[i, 1]
+    return not (U_TOL < u < 1.0 - U_TOL and corner_distance(table[i], ev[i, 0], u) > CORNER_REACH)
+
+
+@njit_no_refcount
+def rate_keeps_contacts(
+    table: FloatArray,
+    ev: FloatArray,
+    cand: IntArray,
+    nc: int,
+    act: IntArray,
+    nact: int,
+    pb: float,
+    pm: float,
+    x0: float,
+    ym: float,
+    vb: float,
+    vm: float,
+    rays: FloatArray,
+) -> bool:
+    """Does the rate (v_b, v_m per unit descent) cut into no touching pair outside the
+    active set? Pairs inside an edge's span by their gap rate, corner pairs by the wedge
+    test (:func:`corners_hold`)."""
+    for k in range(nc):
+        j = cand[k]
+        held = False
+        for a in range(nact):
+            if act[a] == j:
+                held = True
+        if held:
+            continue
+        if is_corner_pair(table, ev, j):
+            if not corner_holds(table, j, pb, pm, x0, ym, vb, vm, rays):
+                return False
+        else:
+            # dg/ds = a_b v_b + a_m v_m - beta: negative cuts in.
+            short = ev[j, 4] - (ev[j, 2] * vb + ev[j, 3] * vm)
+            if short > 1e-9 * (1.0 + abs(ev[j, 4])):
+                return False
     return True
 
 
@@ -302,8 +361,7 @@ def choose_motion(
     n_corner = 0
     for k in range(nc):
         i = cand[k]
-        u = ev[i, 1]
-        if U_TOL < u < 1.0 - U_TOL and corner_distance(table[i], ev[i, 0], u) > CORNER_REACH:
+        if not is_corner_pair(table, ev, i):
             hard[nh] = i
             nh += 1
         else:
@@ -387,10 +445,17 @@ def friction_modes(
     """
     slip[0] = FREE
     slip[1] = FREE
+    dd = 1e-7
     if nact == 2:
+        # Judged a short move ahead along the (fixed) rate: at a slip reversal the rate at
+        # the point itself is zero to round-off, and the old sign would fire the event again.
+        qb, qm, yy = pb + dd * v0b, pm + dd * v0m, ym - dd
+        wb, wm, _, _ = velocity(table, act, 2, qb, qm, x0, yy, sqb, sqm, 0.0, slip)
+        if not (math.isfinite(wb) and math.isfinite(wm)):
+            qb, qm, yy, wb, wm = pb, pm, ym, v0b, v0m
         for k in range(2):
-            cb, cm, gam = tangent(table, act[k], pb, pm, x0, ym)
-            rate = cb * v0b + cm * v0m + gam
+            cb, cm, gam = tangent(table, act[k], qb, qm, x0, yy)
+            rate = cb * wb + cm * wm + gam
             if abs(rate) < 1e-12:
                 slip[k] = FREE
             else:
@@ -399,7 +464,6 @@ def friction_modes(
     cb, cm, gam = tangent(table, act[0], pb, pm, x0, ym)
     slip0 = cb * v0b + cm * v0m + gam
     first = SLIDE_POSITIVE if slip0 >= 0.0 else SLIDE_NEGATIVE
-    dd = 1e-7
     for mode in (first, -first, STICK):
         slip[0] = mode
         vb, vm, lam, _ = velocity(table, act, nact, pb, pm, x0, ym, sqb, sqm, mu, slip)

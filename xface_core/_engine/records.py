@@ -215,6 +215,8 @@ class Work(NamedTuple):
     """Active contacts (first ``n_active``; 4 slots, -1 padded)."""
     slip: IntArray
     """Friction state (:class:`~xface_core.codes.SlipState`) of active contacts 0 and 1."""
+    rays: FloatArray
+    """(4, 2) scratch of the corner test (:func:`~.pairs.corner_motion_admissible`)."""
 
 
 @njit(cache=True, nogil=True)
@@ -232,4 +234,5 @@ def new_work(model: Model, opts: Options) -> Work:
         np.full(MAX_EXCLUDED, -1, dtype=np.int64),
         np.full(4, -1, dtype=np.int64),
         np.full(2, FREE, dtype=np.int64),
+        np.zeros((4, 2)),
     )
