@@ -100,15 +100,18 @@ def _pairs(vertices: FloatArray, edges: FloatArray, kind: int) -> FloatArray:
     # turned counter-clockwise.
     convex_start = before[:, 0] * normals[:, 1] - before[:, 1] * normals[:, 0] > 0.0
     convex_end = normals[:, 0] * after[:, 1] - normals[:, 1] * after[:, 0] > 0.0
-    rows = []
-    for j, (x0, y0, x1, y1, layer) in enumerate(edges):
-        nx, ny = normals[j]
-        for i, (vx, vy) in enumerate(vertices):
-            rows.append(
-                (kind, vx, vy, x0, y0, x1, y1, nx, ny, layer, *before[j], *after[j],
-                 float(convex_start[j]), float(convex_end[j]), *to_next[i], *to_prev[i])
-            )  # fmt: skip
-    return np.asarray(rows, dtype=np.float64).reshape(-1, PAIR_COLUMNS)
+    n_e, n_v = len(edges), len(vertices)
+    # Row (j, i): edge j against vertex i, edges outer, vertices inner.
+    per_edge = np.column_stack(
+        (edges[:, 0:4], normals, edges[:, 4], before, after, convex_start, convex_end)
+    )
+    per_vertex = np.column_stack((vertices, to_next, to_prev))
+    out = np.empty((n_e, n_v, PAIR_COLUMNS))
+    out[:, :, 0] = float(kind)
+    out[:, :, 1:3] = per_vertex[None, :, 0:2]
+    out[:, :, 3:16] = per_edge[:, None, :]
+    out[:, :, 16:20] = per_vertex[None, :, 2:6]
+    return out.reshape(-1, PAIR_COLUMNS)
 
 
 #: Pair tables kept, least recently used first out (a table is a few kB to a few hundred kB).

@@ -327,6 +327,11 @@ def make_face(
     return factory(h_over_d, r_p, width=width, body_depth=body_depth)
 
 
+#: Most vertex-edge pairs a design may have (a 400-vertex outline against another: 320 000
+#: pairs, a 51 MB pair table built in 0.2 s and about 0.2 s per prediction).
+MAX_CONTACT_PAIRS = 500_000
+
+
 def custom_face(
     base_layers: Sequence[npt.ArrayLike],
     moving_layers: Sequence[npt.ArrayLike],
@@ -364,6 +369,14 @@ def custom_face(
     w = _check_ratio("width", width, allow_zero=False)
     base = tuple(_validated_polygon(p, f"base layer {i}") for i, p in enumerate(base_layers))
     moving = tuple(_validated_polygon(p, f"moving layer {i}") for i, p in enumerate(moving_layers))
+    n_pairs = sum(2 * len(b) * len(m) for b, m in zip(base, moving, strict=True))
+    if n_pairs > MAX_CONTACT_PAIRS:
+        raise GeometryError(
+            f"{n_pairs} vertex-edge pairs (2 x base vertices x moving vertices per layer) is "
+            f"more than {MAX_CONTACT_PAIRS}: every prediction checks each pair at every step. "
+            "Simplify the outlines (for example shapely.simplify(polygon, tolerance)) to a "
+            "few hundred vertices per part"
+        )
     for i, (b, m) in enumerate(zip(base, moving, strict=True)):
         overlap = (
             shapely.Polygon(b).intersection(shapely.Polygon(_moving_to_world(m, 0.0, L, 0.0))).area

@@ -240,3 +240,30 @@ def test_thread_count_does_not_change_results() -> None:
     two = xf.predict_batch(design, x0, th, threads=2)
     assert np.array_equal(one.outcome, two.outcome)
     assert np.array_equal(one.phi_m, two.phi_m, equal_nan=True)
+
+
+# Reproducers from random stress runs (issue 10): penetration the kernel's own gaps missed.
+
+
+def test_a_vertex_passing_over_a_corner_into_an_edge_is_caught() -> None:
+    # The base tip passed outside the moving corner and back in across the edge next to
+    # it within one step (two crossings of the plain gap): the parts cut 7e-6 D into each
+    # other for about 55 samples.
+    p = xf.predict(xf.x_face(0.0244, 0.0), 0.024, -1.4326907594758087, margins=False)
+    # A cut 7e-6 D deep but only as wide as the tip's crossing is an area of about 1e-9 D^2,
+    # below PENETRATION_AREA: touching to the event tolerance leaves areas of about 1e-15.
+    assert max_overlap(p) < 1e-12
+
+
+def test_a_vertex_slid_off_a_nearly_flat_corner_does_not_fall_through() -> None:
+    # After sliding off the end of an edge onto a 179-degree corner, free descent was taken
+    # as admissible (the corner test judged the move from the vertex's offset, not its
+    # direction) and the parts ended 3.5e-5 D inside each other.
+    p = xf.predict(
+        xf.s_face(42.41567183579454, 0.0),
+        -0.9139459627024624,
+        -0.0005255807592519091,
+        friction=0.07057921051507066,
+        margins=False,
+    )
+    assert max_overlap(p) < PENETRATION_AREA
