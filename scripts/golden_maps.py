@@ -34,7 +34,7 @@ GRID = 41
 FLOAT_ATOL = 1e-9
 
 
-def _trapezoid_face() -> xf.FaceDesign:
+def trapezoid_face() -> xf.FaceDesign:
     # A flat-topped tooth with chamfers on the base, its complementary socket on the moving
     # part: the flush edges and convex corners a user's own connector is made of.
     tooth = [(-0.5, -1.0), (0.5, -1.0), (0.5, 0.0), (0.2, 0.0), (0.1, 0.3), (-0.1, 0.3),
@@ -44,7 +44,7 @@ def _trapezoid_face() -> xf.FaceDesign:
     return xf.custom_face([tooth], [socket], mated_distance=0.3, mirror_symmetric=True)
 
 
-def _lopsided_face() -> xf.FaceDesign:
+def lopsided_face() -> xf.FaceDesign:
     # An asymmetric single ramp with a step: no mirror symmetry, corners at both ends.
     base = [(-0.5, -1.0), (0.5, -1.0), (0.5, 0.4), (0.1, 0.4), (-0.5, 0.0)]
     moving = [(-0.5, -1.0), (0.5, -1.0), (0.5, 0.4), (-0.1, 0.0), (-0.5, 0.0)]
@@ -71,9 +71,9 @@ CASES: dict[str, tuple[Callable[[], xf.FaceDesign], float, float]] = {
     "S_3.0314_5_tall": (lambda: xf.s_face(3.0314, 5.0), 1.0, 0.0),
     "S_0.5_1_mu0.1": (lambda: xf.s_face(0.5, 1.0), 1.0, 0.1),
     "S_1_0_rp0": (lambda: xf.s_face(1.0, 0.0), 1.0, 0.0),
-    "custom_trapezoid": (_trapezoid_face, 1.0, 0.0),
-    "custom_trapezoid_mu0.15": (_trapezoid_face, 1.0, 0.15),
-    "custom_lopsided": (_lopsided_face, 1.0, 0.0),
+    "custom_trapezoid": (trapezoid_face, 1.0, 0.0),
+    "custom_trapezoid_mu0.15": (trapezoid_face, 1.0, 0.15),
+    "custom_lopsided": (lopsided_face, 1.0, 0.0),
 }
 
 #: Poses (x0 in D, theta0 in rad) whose full predictions, with paths, are stored per design.

@@ -98,7 +98,6 @@ U_CORNER = 1e-6  # edge-parameter slack within which a vertex meets an edge's en
 CORNER_REACH = 1e-7
 CUT_DEPTH = 1e-7  # D: deeper than this, a jump to a fold cut into a contact
 MAX_TURN = 0.02  # rad per accepted step
-MAX_CAND = 16  # touching pairs considered at once
 #: Touching tolerances a pair may lie behind its edge's line and still count as touching.
 #: Every event that stops a touching pair's crossing leaves it up to one touching tolerance
 #: deeper; with a window of 4 a pair that went through four such events dropped out of the
@@ -230,7 +229,9 @@ def new_work(model: Model, opts: Options) -> Work:
         np.empty(n),
         np.empty(n),
         np.zeros(n),
-        np.empty(MAX_CAND, dtype=np.int64),
+        # Room for every pair: a flush contact of finely divided outlines touches many pairs
+        # at once, and a pair left out of the motion choice would be cut into unseen.
+        np.empty(n, dtype=np.int64),
         np.full(MAX_EXCLUDED, -1, dtype=np.int64),
         np.full(4, -1, dtype=np.int64),
         np.full(2, FREE, dtype=np.int64),

@@ -86,7 +86,7 @@ def test_new_work_is_sized_for_the_model_and_cleared() -> None:
     for name in ("g_prev", "u_prev", "g_next", "u_next", "thr"):
         assert getattr(work, name).shape == (n,)
     assert np.all(work.thr == 0.0)
-    assert work.cand.shape == (records.MAX_CAND,)
+    assert work.cand.shape == (model.pairs.shape[0],)
     assert np.array_equal(work.exclude, np.full(records.MAX_EXCLUDED, -1))
     assert np.array_equal(work.act, [-1, -1, -1, -1])
     assert np.array_equal(work.slip, [records.FREE, records.FREE])
