@@ -116,7 +116,12 @@ def engine_map(design: Design, grid: int, cache: Path | None, quiet: bool) -> cc
         with path.open("rb") as f:
             stored = pickle.load(f)
         assert isinstance(stored, cc.EngineMap)
-        return stored
+        if stored.stall_changes is not None:
+            return stored
+        # Stored before the stall confirmation existed: add it (only the jammed cells run).
+        result = cc.confirm_stalls(design.build(), stored, design.physics())
+        _store(path, result)
+        return result
     result = cc.engine_map(
         design.build(),
         design.physics(),
@@ -125,12 +130,16 @@ def engine_map(design: Design, grid: int, cache: Path | None, quiet: bool) -> cc
         progress=None if quiet else cc.stderr_progress,
     )
     if path is not None:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_suffix(".tmp")
-        with tmp.open("wb") as f:
-            pickle.dump(result, f)
-        tmp.replace(path)
+        _store(path, result)
     return result
+
+
+def _store(path: Path, result: cc.EngineMap) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(".tmp")
+    with tmp.open("wb") as f:
+        pickle.dump(result, f)
+    tmp.replace(path)
 
 
 def _pct(x: float) -> str:
@@ -144,7 +153,8 @@ def _row(design: Design, r: cc.CrosscheckResult) -> str:
     return (
         f"| {design.label} | {design.note} | {mx} | {ms} / {mr} | {r.n_unambiguous} "
         f"| {_pct(r.agreement)} | {r.n_ambiguous} | {r.false_seated} | {r.false_failures} "
-        f"| {step:g}{'' if r.converged else ' (not converged)'} | {'yes' if ok else '**no**'} |"
+        f"| {step:g}{'' if r.converged else ' (not converged)'} | {r.stall_changes} "
+        f"| {'yes' if ok else '**no**'} |"
     )
 
 
@@ -173,16 +183,19 @@ def markdown(rows: list[tuple[Design, cc.CrosscheckResult]], grid: int, command:
         ),
         "",
         (
-            "M: SEATED cells (xface; engine sharp / rounded). Agreement: on SEATED or not, over "
+            "M: SEATED cells (xface; engine sharp / rounded). Jams that crept: jammed engine cells "
+            "whose seating changed when run again at 1/100 of the stall speed (a creep, not a "
+            "jam; the slower run is the one compared). Agreement: on SEATED or not, over "
             "the cells where the engine's answer is unambiguous. Bar: at least "
             f"{100 * AGREEMENT_BAR:g} % and no false SEATED."
         ),
         "",
         (
             "| design (face H/D, r_p) | | M xface | M engine | unambiguous | agreement "
-            "| ambiguous | false SEATED | false failures | engine step (D) | bar |"
+            "| ambiguous | false SEATED | false failures | engine step (D) | jams that crept "
+            "| bar |"
         ),
-        "|---|---|---|---|---|---|---|---|---|---|---|",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     lines += [_row(d, r) for d, r in rows]
     dis = [line for d, r in rows for line in _disagreement_lines(d, r)]

@@ -410,6 +410,10 @@ def _crosscheck_lines(face: str, r: Any) -> list[str]:
     ]
     for step, changed in r.step_history:
         lines.append(f"          step (and slop) halved to {step:g} D: {changed} cells changed")
+    if r.stall_changes is not None:
+        lines.append(
+            f"          jams run again at 1/100 of the stall speed: {r.stall_changes} cells changed"
+        )
     m_xface, m_engine, m_rounded = r.m_values()
     lines += [
         (

@@ -40,7 +40,14 @@ from xface_core.physics import Physics
 from xface_core.predict import predict
 from xface_core.runner import predict_batch
 
-from .scene import DEFAULT_ENGINE, DEFAULT_ROUNDING, EngineRun, EngineSettings, run_cell
+from .scene import (
+    DEFAULT_ENGINE,
+    DEFAULT_ROUNDING,
+    JAM_REASON,
+    EngineRun,
+    EngineSettings,
+    run_cell,
+)
 
 __all__ = [
     "CrosscheckResult",
@@ -48,6 +55,7 @@ __all__ = [
     "EngineMap",
     "XfaceEnd",
     "compare_with_engine",
+    "confirm_stalls",
     "crosscheck",
     "engine_map",
     "random_cells",
@@ -64,6 +72,11 @@ INLINE_RUNS = 8
 
 #: Halvings of the step that ``converged=True`` tries at most.
 MAX_HALVINGS = 3
+
+#: ``converged=True`` runs every jammed cell again with the stall speed times this: a run
+#: that only crept (a two-contact path near a fold can need hundreds of rad per D of
+#: descent, the pivot then moving at 1e-6 of its free speed) is no jam.
+STALL_CONFIRM = 0.01
 
 
 @dataclass(frozen=True)
@@ -120,6 +133,9 @@ class CrosscheckResult:
     """None without ``converged``; else whether the last halving changed no cell."""
     step_history: tuple[tuple[float, int], ...] = ()
     """(step, cells that changed when the step was halved to it) per halving."""
+    stall_changes: int | None = None
+    """``converged``: cells whose seating changed when their jams ran again at a lower stall
+    speed (:func:`confirm_stalls`)."""
     seconds: float = 0.0
 
     @property
@@ -334,6 +350,9 @@ class EngineMap:
     converged: bool | None
     step_history: tuple[tuple[float, int], ...]
     seconds: float
+    stall_changes: int | None = None
+    """Cells whose seating changed when their jams were run again at a lower stall speed
+    (``converged``; None when not done)."""
 
     @property
     def ambiguous(self) -> BoolArray:
@@ -389,7 +408,7 @@ def engine_map(
             if not changed.any():
                 is_converged = True
                 break
-    return EngineMap(
+    result = EngineMap(
         x0=x0,
         theta0=theta0,
         grid=n_grid,
@@ -401,6 +420,53 @@ def engine_map(
         converged=is_converged,
         step_history=tuple(history),
         seconds=time.monotonic() - start,
+    )
+    if converged:
+        result = confirm_stalls(design, result, phys, workers=workers, progress=progress)
+    return result
+
+
+def confirm_stalls(
+    design: FaceDesign,
+    engine: EngineMap,
+    physics: Physics | None = None,
+    *,
+    workers: int | None = None,
+    progress: Progress | None = None,
+) -> EngineMap:
+    """The engine map with every jammed cell (a run that stalled away from the mated pose,
+    sharp or rounded) run again, both ways, at ``STALL_CONFIRM`` times the stall speed.
+
+    A stall at the default speed can be a creep: near a fold of a two-contact path the
+    parts must turn hundreds of rad per D of descent, and the pivot moves at about 1e-6 of
+    its free speed (S H/D 0.32988, r_p 2 at x0 = 0.7, theta0 = -pi/10 stalls at 1e-3 and seats
+    at 1e-4 and 1e-5). A true jam stalls again at once.
+    """
+    phys = Physics() if physics is None else physics
+    start = time.monotonic()
+    jammed = [
+        i
+        for i, (a, b) in enumerate(zip(engine.sharp, engine.rounded, strict=True))
+        if a.reason == JAM_REASON or b.reason == JAM_REASON
+    ]
+    slow = replace(engine.settings, stall_speed=engine.settings.stall_speed * STALL_CONFIRM)
+    tasks = [(float(engine.x0[i]), float(engine.theta0[i]), slow) for i in jammed]
+    tasks += [
+        (float(engine.x0[i]), float(engine.theta0[i]), slow.rounded(engine.rounding))
+        for i in jammed
+    ]
+    runs = run_engine(design, phys, tasks, workers=workers, progress=progress)
+    sharp, rounded = list(engine.sharp), list(engine.rounded)
+    before = _verdicts(sharp, rounded)
+    for k, i in enumerate(jammed):
+        sharp[i], rounded[i] = runs[k], runs[len(jammed) + k]
+    changes = int((_verdicts(sharp, rounded) != before).sum())
+    return replace(
+        engine,
+        sharp=tuple(sharp),
+        rounded=tuple(rounded),
+        stall_changes=changes,
+        seconds=engine.seconds + time.monotonic() - start,
     )
 
 
@@ -444,6 +510,7 @@ def compare_with_engine(
         disagreements=disagreements,
         converged=engine.converged,
         step_history=engine.step_history,
+        stall_changes=engine.stall_changes,
         seconds=engine.seconds + time.monotonic() - start,
     )
 
@@ -537,6 +604,7 @@ def result_json(result: CrosscheckResult) -> dict[str, object]:
         },
         "converged": result.converged,
         "step_history": [{"step": st, "changed": n} for st, n in result.step_history],
+        "stall_changes": result.stall_changes,
         "agreement": _finite_or_none(result.agreement),
         "outcome_agreement": _finite_or_none(result.outcome_agreement),
         "unambiguous": result.n_unambiguous,

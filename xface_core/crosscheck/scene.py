@@ -302,6 +302,10 @@ def is_seated_pose(
     )
 
 
+#: The reason of a run that stalled away from the mated pose.
+JAM_REASON = "jammed: stopped away from the mated pose"
+
+
 def classify(
     *,
     phi_b: float,
@@ -349,7 +353,7 @@ def classify(
     if stalled:
         if is_seated_pose(phi_b, phi_m, x_m, y_m, L, settings):
             return Outcome.SEATED, "seated: stopped at the mated pose"
-        return Outcome.BAD_MATE, "jammed: stopped away from the mated pose"
+        return Outcome.BAD_MATE, JAM_REASON
     return None
 
 
