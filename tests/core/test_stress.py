@@ -43,6 +43,9 @@ def max_overlap(p: xf.Prediction, *, skip_seated_end: bool = False) -> float:
             moving = shapely.Polygon(
                 d.moving_outline_world(layer, p.x0 / w, path.pivot_m[k, 1] / w, path.phi_m[k])
             )
+            # Snap-rounded overlay (grid 1e-12 D): GEOS's floating overlay returned the whole
+            # area (1.5 D^2) for two parts that only lie flush along one line.
+            base, moving = shapely.set_precision(base, 1e-12), shapely.set_precision(moving, 1e-12)
             worst = max(worst, base.intersection(moving).area)
     return worst
 
@@ -251,8 +254,9 @@ def test_a_vertex_passing_over_a_corner_into_an_edge_is_caught() -> None:
     # other for about 55 samples.
     p = xf.predict(xf.x_face(0.0244, 0.0), 0.024, -1.4326907594758087, margins=False)
     # A cut 7e-6 D deep but only as wide as the tip's crossing is an area of about 1e-9 D^2,
-    # below PENETRATION_AREA: touching to the event tolerance leaves areas of about 1e-15.
-    assert max_overlap(p) < 1e-12
+    # below PENETRATION_AREA: touching to the event tolerance leaves areas of about 1e-12
+    # (the overlay's snapping grid).
+    assert max_overlap(p) < 1e-10
 
 
 def test_a_vertex_slid_off_a_nearly_flat_corner_does_not_fall_through() -> None:

@@ -25,6 +25,8 @@ from .records import (
     E_OFF_EDGE,
     E_RELEASE,
     E_SLIP,
+    PUSH_SLACK,
+    SLIP_PROBE,
     U_TOL,
     FloatArray,
     IntArray,
@@ -136,7 +138,11 @@ def event_value(
         return clipped_gap(row, g, cb, sb, cm, sm, seg.x0, ym) - thr
     if kind == E_RELEASE:
         _, _, l1, l2 = segment_velocity(seg, pb, pm, ym)
-        return l1 if slot == 0 else l2
+        lam = l1 if slot == 0 else l2
+        if seg.mu > 0.0 and seg.n_active == 2:
+            # The slack with which interval._both_push holds two frictional contacts.
+            return lam + PUSH_SLACK * max(abs(l1), abs(l2))
+        return lam
     if kind == E_OFF_EDGE:
         _, u, _, _, _, _, _, _, _ = pair_at(seg.pairs, idx, pb, pm, seg.x0, ym)
         # A vertex trapped in a corner sits at u = 0 or 1 up to round-off: not an event.
@@ -226,6 +232,13 @@ def locate(
     hi = step.h
     nb, nm, _, _, _ = step_to(seg, step, hi)
     f_hi = event_value(seg, kind, idx, slot, thr, nb, nm, step.y_m - hi)
+    if not f_lo > 0.0 and kind == E_SLIP and hi > SLIP_PROBE:
+        # A friction state is chosen a short move ahead (motion.friction_modes): one that is
+        # marginal at the start (a stuck contact on the edge of its cone) but holds there
+        # has not changed yet. Located from the start it would fire at once, over and over.
+        f_probe = event_after(seg, step, kind, idx, slot, thr, SLIP_PROBE)
+        if f_probe > 0.0:
+            lo, f_lo = SLIP_PROBE, f_probe
     if not f_lo > 0.0:
         return 0.0, 0.0
     # Predictor: the root on the step's Hermite interpolant, then a tight bracket around it

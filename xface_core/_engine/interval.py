@@ -20,6 +20,7 @@ from .records import (
     O_SEATED,
     O_UNRESOLVED,
     P_APPROACH,
+    PUSH_SLACK,
     R_BELOW_SEAT,
     R_EVENT_LIMIT,
     R_FRICTION_LOCK,
@@ -99,12 +100,12 @@ def start_run(
 
 @njit_no_refcount
 def _both_push(l1: float, l2: float) -> bool:
-    """Both contact forces compressive, to 1e-3 of the larger one. On a flush edge (two
+    """Both contact forces compressive, to PUSH_SLACK of the larger one. On a flush edge (two
     contacts, one normal) friction can leave one end's force at about -1e-4 of the other's
     (S H/D 12.4, r_p 0, mu 0.66): released, that end is closed again by the one-contact
     rate within 1e-4 D, over and over (400 events), where holding it is the sliding limit
     the engine shows (it seats)."""
-    return min(l1, l2) >= -1e-3 * max(abs(l1), abs(l2))
+    return min(l1, l2) >= -PUSH_SLACK * max(abs(l1), abs(l2))
 
 
 @njit_no_refcount
@@ -189,6 +190,41 @@ def _one_consistent(
     )
 
 
+@njit(cache=True, nogil=True)  # choose_motion allocates: needs NRT
+def _choose(model: Model, opts: Options, run: Run, work: Work) -> tuple[int, int, bool]:
+    """The touching pairs, the least-dissipation motion and, with friction, the consistent
+    active set: ``(status, n_active, consistent)`` (work.act, work.slip set)."""
+    pb, pm, x0, ym = run.phi_b, run.phi_m, run.x0, run.y_m
+    nc = touching_pairs(
+        model.pairs, work.ev, pb, pm, x0, ym, opts.touch_tol, work.exclude, run.n_excluded,
+        work.cand,
+    )  # fmt: skip
+    sqb, sqm = opts.sqrt_winv_b, opts.sqrt_winv_m
+    status, n_new, v0b, v0m = choose_motion(
+        model.pairs, work.ev, work.cand, nc, pb, pm, x0, ym, sqb, sqm, work.act
+    )
+    consistent = True
+    if status == MOVES and n_new > 0 and opts.friction > 0.0:
+        consistent, n_new, _, _ = _with_friction(model, opts, run, work, nc, n_new, v0b, v0m)
+    return status, n_new, consistent
+
+
+@njit_no_refcount
+def _keeps_excluded(model: Model, opts: Options, run: Run, work: Work, n_new: int) -> bool:
+    """Does the chosen motion (its rate with friction) keep clear of the excluded pairs?"""
+    pb, pm, x0, ym = run.phi_b, run.phi_m, run.x0, run.y_m
+    vb, vm = 0.0, 0.0
+    if n_new > 0:
+        vb, vm, _, _ = velocity(
+            model.pairs, work.act, n_new, pb, pm, x0, ym, opts.sqrt_winv_b, opts.sqrt_winv_m,
+            opts.friction, work.slip,
+        )  # fmt: skip
+    return rate_keeps_contacts(
+        model.pairs, work.ev, work.exclude, run.n_excluded, work.act, n_new, pb, pm, x0, ym,
+        vb, vm, work.rays,
+    )  # fmt: skip
+
+
 @njit(cache=True, nogil=True)  # allocates below: needs NRT
 def begin_interval(
     model: Model, opts: Options, run: Run, work: Work, path: FloatArray, path_pairs: IntArray
@@ -206,28 +242,21 @@ def begin_interval(
         end_run(run, path, path_pairs, work.act, O_SEATED, R_SEATED, False)
         return
     eval_all_pairs(model.pairs, pb, pm, x0, ym, work.ev)
-    nc = touching_pairs(
-        model.pairs,
-        work.ev,
-        pb,
-        pm,
-        x0,
-        ym,
-        opts.touch_tol,
-        work.exclude,
-        run.n_excluded,
-        work.cand,
-    )
-    sqb, sqm = opts.sqrt_winv_b, opts.sqrt_winv_m
-    status, n_new, v0b, v0m = choose_motion(
-        model.pairs, work.ev, work.cand, nc, pb, pm, x0, ym, sqb, sqm, work.act
-    )
-    if status == MOVES and n_new > 0 and opts.friction > 0.0:
-        consistent, n_new, v0b, v0m = _with_friction(model, opts, run, work, nc, n_new, v0b, v0m)
-        if not consistent:
-            # Friction locks the contact: no admissible slip state lets the parts descend.
-            end_at_rest(run, path, path_pairs, work.act, L, opts.seat_tol, R_FRICTION_LOCK, False)
-            return
+    status, n_new, consistent = _choose(model, opts, run, work)
+    if (
+        status == MOVES
+        and consistent
+        and run.n_excluded > 0
+        and not _keeps_excluded(model, opts, run, work, n_new)
+    ):
+        # A pair released or slid off here is kept out so that contacts at a corner cannot
+        # cycle; but a motion that cuts into it is no motion: choose again with it.
+        run.n_excluded = 0
+        status, n_new, consistent = _choose(model, opts, run, work)
+    if not consistent:
+        # Friction locks the contact: no admissible slip state lets the parts descend.
+        end_at_rest(run, path, path_pairs, work.act, L, opts.seat_tol, R_FRICTION_LOCK, False)
+        return
     if status == BLOCKED:
         # No descent is possible any more.
         end_at_rest(run, path, path_pairs, work.act, L, opts.seat_tol, R_JAMMED, False)

@@ -20,6 +20,7 @@ from .records import (
     FREE,
     SLIDE_NEGATIVE,
     SLIDE_POSITIVE,
+    SLIP_PROBE,
     STICK,
     TINY,
     U_CORNER,
@@ -445,7 +446,7 @@ def friction_modes(
     """
     slip[0] = FREE
     slip[1] = FREE
-    dd = 1e-7
+    dd = SLIP_PROBE
     if nact == 2:
         # Judged a short move ahead along the (fixed) rate: at a slip reversal the rate at
         # the point itself is zero to round-off, and the old sign would fire the event again.

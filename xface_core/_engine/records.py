@@ -98,6 +98,13 @@ U_CORNER = 1e-6  # edge-parameter slack within which a vertex meets an edge's en
 CORNER_REACH = 1e-7
 CUT_DEPTH = 1e-7  # D: deeper than this, a jump to a fold cut into a contact
 MAX_TURN = 0.02  # rad per accepted step
+#: D of descent ahead at which a friction state is judged: at a transition the state at the
+#: point itself is marginal (motion.friction_modes, events.locate).
+SLIP_PROBE = 1e-7
+#: Two frictional contacts are held while each force is above -PUSH_SLACK times the larger:
+#: on a flush edge friction can leave one end's force at about -1e-4 of the other's, and
+#: released it is closed again at once (interval._both_push, the release event).
+PUSH_SLACK = 1e-3
 #: Touching tolerances a pair may lie behind its edge's line and still count as touching.
 #: Every event that stops a touching pair's crossing leaves it up to one touching tolerance
 #: deeper; with a window of 4 a pair that went through four such events dropped out of the
