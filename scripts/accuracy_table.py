@@ -156,6 +156,7 @@ def _row(design: Design, r: cc.CrosscheckResult) -> str:
         f"| {design.label} | {design.note} | {mx} | {ms} / {mr} | {r.n_unambiguous} "
         f"| {_pct(r.agreement)} | {r.n_ambiguous} | {r.false_seated} | {r.false_failures} "
         f"| {step:g}{'' if r.converged else ' (not converged)'} | {r.stall_changes} "
+        f"| {r.knife_edges} "
         f"| {'yes' if ok else '**no**'} |"
     )
 
@@ -187,7 +188,9 @@ def markdown(rows: list[tuple[Design, cc.CrosscheckResult]], grid: int, command:
         (
             "M: SEATED cells (xface; engine sharp / rounded). Jams that crept: jammed engine cells "
             "whose seating changed when run again at 1/100 of the stall speed (a creep, not a "
-            "jam; the slower run is the one compared). Agreement: on SEATED or not, over "
+            "jam; the slower run is the one compared). Knife edges: disagreeing cells whose "
+            "sharp engine answer flips within 0.002 D of x0 (counted ambiguous). Agreement: "
+            "on SEATED or not, over "
             "the cells where the engine's answer is unambiguous. Bar: at least "
             f"{100 * AGREEMENT_BAR:g} % and no false SEATED."
         ),
@@ -195,9 +198,9 @@ def markdown(rows: list[tuple[Design, cc.CrosscheckResult]], grid: int, command:
         (
             "| design (face H/D, r_p) | | M xface | M engine | unambiguous | agreement "
             "| ambiguous | false SEATED | false failures | engine step (D) | jams that crept "
-            "| bar |"
+            "| knife edges | bar |"
         ),
-        "|---|---|---|---|---|---|---|---|---|---|---|---|",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     lines += [_row(d, r) for d, r in rows]
     dis = [line for d, r in rows for line in _disagreement_lines(d, r)]
@@ -238,7 +241,7 @@ def main(argv: list[str] | None = None) -> int:
         if args.cached_only and not (args.cache / f"{_cache_key(d, args.grid)}.pkl").exists():
             continue
         em = engine_map(d, args.grid, None if args.no_cache else args.cache, args.quiet)
-        r = cc.compare_with_engine(d.build(), em, d.physics())
+        r = cc.drop_knife_edges(cc.compare_with_engine(d.build(), em, d.physics()))
         rows.append((d, r))
         if not args.quiet:
             print(

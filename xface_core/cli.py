@@ -414,6 +414,11 @@ def _crosscheck_lines(face: str, r: Any) -> list[str]:
         lines.append(
             f"          jams run again at 1/100 of the stall speed: {r.stall_changes} cells changed"
         )
+    if r.knife_edges is not None:
+        lines.append(
+            f"          disagreements whose engine answer flips within {r.rounding:g} D of x0: "
+            f"{r.knife_edges} (counted ambiguous)"
+        )
     m_xface, m_engine, m_rounded = r.m_values()
     lines += [
         (

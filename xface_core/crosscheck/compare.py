@@ -57,6 +57,7 @@ __all__ = [
     "compare_with_engine",
     "confirm_stalls",
     "crosscheck",
+    "drop_knife_edges",
     "engine_map",
     "random_cells",
     "result_json",
@@ -136,6 +137,9 @@ class CrosscheckResult:
     stall_changes: int | None = None
     """``converged``: cells whose seating changed when their jams ran again at a lower stall
     speed (:func:`confirm_stalls`)."""
+    knife_edges: int | None = None
+    """``converged``: disagreeing cells found ambiguous because the sharp engine's seating
+    flips within ``rounding`` of the cell's x0 (:func:`drop_knife_edges`)."""
     seconds: float = 0.0
 
     @property
@@ -515,6 +519,46 @@ def compare_with_engine(
     )
 
 
+def drop_knife_edges(
+    result: CrosscheckResult, *, workers: int | None = None, progress: Progress | None = None
+) -> CrosscheckResult:
+    """The comparison with every disagreeing cell whose engine answer is a knife edge marked
+    ambiguous: the sharp engine, started ``rounding`` (0.002 D) either side of the cell's x0,
+    does not give the cell's seating on both sides.
+
+    Rounding the corners moves the boundary between two outcomes by about the rounding, so
+    a cell exactly on it (a V tip landing exactly on a notch corner, V H/D 0.57435 r_p 1 at
+    x0 = -D/2, theta0 = 0: BAD_MATE for x0 < -D/2, SEATED above, in xface and in the sharp
+    engine) can have sharp and rounded runs on the same side, and the engine's pick at the
+    exact tie is its own (which separating axis its collision test reports). Only
+    disagreements are checked: the test is the engine's, but it costs two runs per cell.
+    """
+    if not result.disagreements:
+        return replace(result, knife_edges=0)
+    design, phys, d = result.design, result.physics, result.rounding
+    tasks = [
+        (dis.x0 + side * d, dis.theta0, result.settings)
+        for dis in result.disagreements
+        for side in (-1.0, 1.0)
+    ]
+    runs = run_engine(design, phys, tasks, workers=workers, progress=progress)
+    ambiguous = result.ambiguous.copy()
+    kept = []
+    for k, dis in enumerate(result.disagreements):
+        seated = dis.engine.outcome is Outcome.SEATED
+        sides = (runs[2 * k].outcome is Outcome.SEATED, runs[2 * k + 1].outcome is Outcome.SEATED)
+        if sides == (seated, seated):
+            kept.append(dis)
+        else:
+            ambiguous[dis.index] = True
+    return replace(
+        result,
+        ambiguous=ambiguous,
+        disagreements=tuple(kept),
+        knife_edges=len(result.disagreements) - len(kept),
+    )
+
+
 def crosscheck(
     design: FaceDesign,
     physics: Physics | None = None,
@@ -562,7 +606,10 @@ def crosscheck(
         design, physics, grid=grid, cells=cells, settings=settings, rounding=rounding,
         converged=converged, workers=workers, progress=progress,
     )  # fmt: skip
-    return compare_with_engine(design, engine, physics)
+    result = compare_with_engine(design, engine, physics)
+    if converged:
+        result = drop_knife_edges(result, workers=workers, progress=progress)
+    return result
 
 
 def _run_json(run: EngineRun) -> dict[str, object]:
@@ -605,6 +652,7 @@ def result_json(result: CrosscheckResult) -> dict[str, object]:
         "converged": result.converged,
         "step_history": [{"step": st, "changed": n} for st, n in result.step_history],
         "stall_changes": result.stall_changes,
+        "knife_edges": result.knife_edges,
         "agreement": _finite_or_none(result.agreement),
         "outcome_agreement": _finite_or_none(result.outcome_agreement),
         "unambiguous": result.n_unambiguous,
