@@ -88,13 +88,18 @@ def _finals(design: FaceDesign, settings: SolverSettings) -> _Finals:
 
 def _overlap_area(design: FaceDesign, x0: float, phi_b: float, phi_m: float, y_m: float) -> float:
     """Overlap area (D^2) of equal layers: the constraint violation, measured by shapely
-    independently of the kernel's gap functions (exact for non-convex faces too)."""
+    independently of the kernel's gap functions (exact for non-convex faces too). The overlay
+    is snap-rounded to 1e-12 D: GEOS's floating overlay returned the whole area (1.5 D^2)
+    for two parts lying flush along one line."""
     import shapely
+
+    def snapped(outline: npt.NDArray[np.float64]) -> shapely.Geometry:
+        return shapely.set_precision(shapely.Polygon(outline), 1e-12)
 
     return max(
         float(
-            shapely.Polygon(design.base_outline_world(k, phi_b))
-            .intersection(shapely.Polygon(design.moving_outline_world(k, x0, y_m, phi_m)))
+            snapped(design.base_outline_world(k, phi_b))
+            .intersection(snapped(design.moving_outline_world(k, x0, y_m, phi_m)))
             .area
         )
         for k in range(design.n_layers)
