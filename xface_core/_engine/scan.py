@@ -58,9 +58,14 @@ def _active_events(
             lo, hk = locate(seg, step, tol, E_RELEASE, pair, k, 0.0)
             kind = E_RELEASE
             pbk, pmk, _, _, _ = step_to(seg, step, lo)
-            _, _, m1, m2 = segment_velocity(seg, pbk, pmk, step.y_m - lo)
-            _, _, s1, s2 = segment_velocity(seg, step.phi_b, step.phi_m, step.y_m)
-            if abs(m1 if k == 0 else m2) > 1e-6 * max(1.0, abs(s1 if k == 0 else s2)):
+            wb, wm, m1, m2 = segment_velocity(seg, pbk, pmk, step.y_m - lo)
+            sb, sm, s1, s2 = segment_velocity(seg, step.phi_b, step.phi_m, step.y_m)
+            pole = abs(m1 if k == 0 else m2) > 1e-6 * max(1.0, abs(s1 if k == 0 else s2))
+            # With friction the forces also have a pole where the friction-turned normals
+            # line up (the contacts wedge) while the rate stays finite: the path goes on,
+            # only this set of slipping contacts cannot carry it; choose again (a release).
+            wedge = seg.mu > 0.0 and max(abs(wb), abs(wm)) < 1e3 * max(1.0, abs(sb), abs(sm))
+            if pole and not wedge:
                 # lambda changed sign through a pole, not through zero: the contact path
                 # turns back here and cannot descend further.
                 kind = E_TURN
