@@ -167,21 +167,22 @@ def _contact_events(
         _, hk = locate(seg, step, tol, E_CONTACT, i, 0, thr[i])
         if best.kind != E_NONE and hk >= best.h:
             continue
-        pbk, pmk, _, _, _ = step_to(seg, step, hk)
-        gk, uk, _, _, _, _, _, _, _ = pair_at(pairs, i, pbk, pmk, x0, step.y_m - hk)
-        if _accepts_contact(row, gk, uk, thr[i]):
+        if _is_contact(seg, step, i, hk, thr[i]):
             best = Event(E_CONTACT, i, hk)
     return best
 
 
 @njit_no_refcount
-def _accepts_contact(row: FloatArray, gk: float, uk: float, thr: float) -> bool:
-    """Is a located crossing of the clipped gap this edge's contact? Only if the vertex
-    crosses this edge's own line (not just a neighbour's, far from this edge's corner), and
-    within the span, past a convex end at the corner, or just past a reflex end (a tip
-    reaching the bottom of a notch)."""
+def _is_contact(seg: Segment, step: Step, i: int, hk: float, thr: float) -> bool:
+    """Is the crossing of pair i's clipped gap located at ``hk`` this edge's contact? Only
+    if the vertex crosses this edge's own line (not just a neighbour's, far from this edge's
+    corner), and within the span, past a convex end at the corner, or just past a reflex end
+    (a tip reaching the bottom of a notch)."""
+    pbk, pmk, _, _, _ = step_to(seg, step, hk)
+    gk, uk, _, _, _, _, _, _, _ = pair_at(seg.pairs, i, pbk, pmk, seg.x0, step.y_m - hk)
     if gk < thr - CORNER_REACH:
         return False
+    row = seg.pairs[i]
     return not ((uk < -U_CORNER and row[14] < 0.5) or (uk > 1.0 + U_CORNER and row[15] < 0.5))
 
 
@@ -214,9 +215,7 @@ def _contacts_before(opts: Options, seg: Segment, step: Step, work: Work, best: 
             _, hk = locate(seg, head, opts.event_tol, E_CONTACT, i, 0, thr[i])
             if hk >= earliest.h:
                 continue
-            pbk, pmk, _, _, _ = step_to(seg, step, hk)
-            gk, uk, _, _, _, _, _, _, _ = pair_at(pairs, i, pbk, pmk, x0, step.y_m - hk)
-            if _accepts_contact(row, gk, uk, thr[i]):
+            if _is_contact(seg, step, i, hk, thr[i]):
                 earliest = Event(E_CONTACT, i, hk)
         if earliest.h == best.h:
             return best
@@ -313,9 +312,7 @@ def _contacts_inside_step(
             )
             if best.kind != E_NONE and hk >= best.h:
                 break
-            pbk, pmk, _, _, _ = step_to(seg, step, hk)
-            gk, uk, _, _, _, _, _, _, _ = pair_at(pairs, i, pbk, pmk, x0, step.y_m - hk)
-            if _accepts_contact(row, gk, uk, thr[i]):
+            if _is_contact(seg, step, i, hk, thr[i]):
                 best = Event(E_CONTACT, i, hk)
             break
     return best
