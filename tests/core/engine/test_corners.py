@@ -1,0 +1,102 @@
+"""pairs.py's corner geometry: the clipped gap, whether a crossing meets the part, the
+distance to an edge's corner and the vertex-on-vertex wedge test (docs/contact.md)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import xface_core as xf
+from xface_core._engine.pairs import (
+    clipped_gap,
+    corner_distance,
+    corner_motion_admissible,
+    meets_part,
+    pair_at,
+)
+from xface_core.contact import MOVING_VERTEX, pair_table
+
+# Two unit squares (a base block with its top edge at y = 0, the same block as the moving
+# part): every corner convex, the top edge from (0.5, 0) to (-0.5, 0).
+SQUARE = [(-0.5, -1.0), (0.5, -1.0), (0.5, 0.0), (-0.5, 0.0)]
+DESIGN = xf.custom_face([SQUARE], [SQUARE], mated_distance=2.0)
+TABLE = pair_table(DESIGN).data
+
+
+def _pair(kind: int, vertex: tuple[float, float], e0: tuple[float, float]) -> int:
+    for i, row in enumerate(TABLE):
+        if row[0] == kind and tuple(row[1:3]) == vertex and tuple(row[3:5]) == e0:
+            return i
+    raise AssertionError("no such pair")
+
+
+# The moving part's corner (-0.5, 0) (in the world at (x0 + 0.5, y_M) with phi_M = 0)
+# against the base's top edge.
+TOP = _pair(MOVING_VERTEX, (-0.5, 0.0), (0.5, 0.0))
+
+
+def _at(world_x: float, world_y: float) -> tuple[float, float, float, float, float]:
+    """(g, u, x0, y_M, clipped gap) with the moving corner at (world_x, world_y)."""
+    x0, ym = world_x - 0.5, world_y
+    g, u, *_ = pair_at(TABLE, TOP, 0.0, 0.0, x0, ym)
+    return g, u, x0, ym, clipped_gap(TABLE[TOP], g, 1.0, 0.0, 1.0, 0.0, x0, ym)
+
+
+def test_a_vertex_behind_the_line_but_beside_the_corner_is_outside() -> None:
+    # Past the right end of the top edge and below its line: the right wall's line says the
+    # vertex is 0.1 D outside the block.
+    g, _, x0, ym, c = _at(0.6, -0.1)
+    assert g == pytest.approx(-0.1)
+    assert c == pytest.approx(0.1)
+    assert not meets_part(TABLE[TOP], 1.1, 1.0, 0.0, 1.0, 0.0, x0, ym, 1e-9)
+
+
+def test_a_vertex_behind_both_lines_of_a_convex_corner_is_inside() -> None:
+    _, u, x0, ym, c = _at(0.45, -0.1)
+    assert c == pytest.approx(-0.05)  # the wall is the nearer line
+    assert meets_part(TABLE[TOP], u, 1.0, 0.0, 1.0, 0.0, x0, ym, 1e-9)
+
+
+def test_the_clipped_gap_is_the_gap_inside_the_span() -> None:
+    g, _, _, _, c = _at(0.0, -0.01)
+    assert c == g
+
+
+def test_the_corner_distance_is_measured_to_the_nearer_end() -> None:
+    row = TABLE[TOP]  # a unit edge
+    assert corner_distance(row, 0.0, 0.25) == pytest.approx(0.25)
+    assert corner_distance(row, 0.0, 0.9) == pytest.approx(0.1)
+    assert corner_distance(row, 3e-9, 1.0 + 4e-9) == pytest.approx(5e-9)
+
+
+# S H/D 0.5, r_p 1 at x0 = -D/2: the base corner (-0.5, 1.25) meets the moving corner
+# (0.5, 1.25), both convex (pairs 40 and 46: the base vertex on the two moving edges at that
+# corner), at this state.
+S_TABLE = pair_table(xf.s_face(0.5, 1.0)).data
+S_STATE = (-0.13110005993332843, 0.5053927452637994, 2.6404418354398747)
+S_X0 = -0.5
+
+
+def _admissible(pair: int, vb: float, vm: float) -> bool:
+    """The wedge test for a short move along the rate (v_b, v_m) per unit descent."""
+    pb, pm, ym = S_STATE
+    trial = (pb + 1e-7 * vb, pm + 1e-7 * vm, ym - 1e-7)
+    _, u, *_ = pair_at(S_TABLE, pair, pb, pm, S_X0, ym)
+    return corner_motion_admissible(S_TABLE[pair], u > 0.5, S_STATE, trial, S_X0, np.empty((4, 2)))
+
+
+def test_the_corners_slip_past_each_other_along_one_edge() -> None:
+    # The rate that keeps only pair 46 (the base corner sliding along the moving edge away
+    # from the corner) keeps the corners apart, judged from either pair of the meeting.
+    assert _admissible(40, -0.1774, -0.1935)
+    assert _admissible(46, -0.1774, -0.1935)
+
+
+def test_the_corners_do_not_slip_the_way_that_cuts_in() -> None:
+    # The rate that keeps only pair 40 takes the base corner into the moving part.
+    assert not _admissible(40, 0.1935, 0.1857)
+    assert not _admissible(46, 0.1935, 0.1857)
+
+
+def test_pure_descent_drives_the_corners_into_each_other() -> None:
+    assert not _admissible(40, 0.0, 0.0)
