@@ -96,3 +96,13 @@ def test_a_design_with_too_many_contact_pairs_is_rejected_up_front() -> None:
     outline = [(-0.5, -1.0), (0.5, -1.0), *top]
     with pytest.raises(GeometryError, match="vertex-edge pairs"):
         xf.custom_face([outline], [outline], mated_distance=2.0)
+
+
+@pytest.mark.parametrize("x0", [-0.1, 0.0, 0.1])
+def test_a_corner_held_in_a_notch_moves_with_it(x0: float) -> None:
+    # S H/D 0.18946, r_p 0, the moving part turned a quarter turn: its corner drops into the
+    # base's notch and the two turn together into the seat. The corner test compared the
+    # corner's move against the notch, zero to 1e-22 there, with a tolerance relative to that
+    # difference and called the motion a cut (a false jam). Engine: SEATED, at xface's pose.
+    p = xf.predict(xf.s_face(0.18946, 0.0), x0, -PI / 2, margins=False)
+    assert p.outcome is Outcome.SEATED

@@ -218,19 +218,27 @@ def corner_motion_admissible(
     pb1, pm1, y1 = trial
     cv0, sv0 = (math.cos(pm0), math.sin(pm0)) if moving_v else (math.cos(pb0), math.sin(pb0))
     ck0, sk0 = (math.cos(pb0), math.sin(pb0)) if moving_v else (math.cos(pm0), math.sin(pm0))
-    cv1, sv1 = (math.cos(pm1), math.sin(pm1)) if moving_v else (math.cos(pb1), math.sin(pb1))
-    ck1, sk1 = (math.cos(pb1), math.sin(pb1)) if moving_v else (math.cos(pm1), math.sin(pm1))
     kx, ky = (row[5], row[6]) if at_end else (row[3], row[4])
-    v0x, v0y = _to_world(row, row[1], row[2], moving_v, cv0, sv0, x0, y0, True)
-    v1x, v1y = _to_world(row, row[1], row[2], moving_v, cv1, sv1, x0, y1, True)
-    k0x, k0y = _to_world(row, kx, ky, not moving_v, ck0, sk0, x0, y0, True)
-    k1x, k1y = _to_world(row, kx, ky, not moving_v, ck1, sk1, x0, y1, True)
-    # The move of V relative to K, judged by its direction as if V were at K: V is within
-    # CORNER_REACH of K (events leave it a few 1e-9 D off, on either side), and a direction
-    # into the corner would reach it within that distance.
-    dx = (v1x - k1x) - (v0x - k0x)
-    dy = (v1y - k1y) - (v0y - k0y)
-    tol = 1e-6 * math.hypot(dx, dy)
+    # The move of V relative to K to first order (a finite difference of the positions
+    # would carry the move's curvature, about dd^2 |v|^2, into a test of its direction:
+    # near a fold, where the parts turn fast, that made straight slides look like cuts).
+    # A point r of a part turning by dphi moves by J R r dphi (J: a quarter turn); the
+    # moving part's points are P_M - R r, and P_M moves by dy_M vertically.
+    d_pb, d_pm, d_y = pb1 - pb0, pm1 - pm0, y1 - y0
+    d_v = d_pm if moving_v else d_pb
+    d_k = d_pb if moving_v else d_pm
+    rvx, rvy = cv0 * row[1] - sv0 * row[2], sv0 * row[1] + cv0 * row[2]
+    rkx, rky = ck0 * kx - sk0 * ky, sk0 * kx + ck0 * ky
+    sign_v = -1.0 if moving_v else 1.0
+    dvx, dvy = sign_v * -rvy * d_v, sign_v * rvx * d_v + (d_y if moving_v else 0.0)
+    dkx, dky = -sign_v * -rky * d_k, -sign_v * rkx * d_k + (0.0 if moving_v else d_y)
+    # Judged by its direction as if V were at K: V is within CORNER_REACH of K (events
+    # leave it a few 1e-9 D off, on either side), and a direction into the corner would
+    # reach it within that distance.
+    dx, dy = dvx - dkx, dvy - dky
+    # Round-off of d is relative to the moves of V and K themselves: a vertex held in a
+    # notch moves with it, and d is then zero to 1e-22.
+    tol = 1e-6 * (math.hypot(dvx, dvy) + math.hypot(dkx, dky))
     # The edge owner's wedge at K, from the edge directions in and out of K (a
     # counter-clockwise polygon has its inside on the left): rays t_out and -t_in.
     if at_end:
