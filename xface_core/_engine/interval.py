@@ -145,14 +145,14 @@ def _with_friction(
         first, second = act[0], act[1]
         for keep in (first, second):
             act[0], act[1] = keep, -1
-            if _one_consistent(model, opts, run, work, nc, v0b, v0m):
-                fb, fm, _, _ = velocity(table, act, 1, pb, pm, x0, ym, sqb, sqm, mu, slip)
+            keeps, fb, fm = _one_consistent(model, opts, run, work, nc, v0b, v0m)
+            if keeps:
                 return True, 1, fb, fm
         act[0], act[1] = first, second
         return False, 2, v0b, v0m
-    if not friction_modes(table, act, 1, pb, pm, x0, ym, sqb, sqm, mu, slip, v0b, v0m):
+    ok, fb, fm = _one_contact_rate(model, opts, run, work, v0b, v0m)
+    if not ok:
         return False, 1, v0b, v0m
-    fb, fm, _, _ = velocity(table, act, 1, pb, pm, x0, ym, sqb, sqm, mu, slip)
     if rate_keeps_contacts(table, ev, cand, nc, act, 1, pb, pm, x0, ym, fb, fm, rays):
         return True, 1, v0b, v0m
     # The frictional rate cuts into a touching pair: hold one more (the deepest cut first
@@ -174,20 +174,33 @@ def _with_friction(
 
 
 @njit_no_refcount
-def _one_consistent(
-    model: Model, opts: Options, run: Run, work: Work, nc: int, v0b: float, v0m: float
-) -> bool:
-    """Is the one contact ``work.act[0]`` consistent under friction (a slip state that
-    pushes and slips its way, and a rate that cuts into no other touching pair)?"""
+def _one_contact_rate(
+    model: Model, opts: Options, run: Run, work: Work, v0b: float, v0m: float
+) -> tuple[bool, float, float]:
+    """The slip state of the one contact ``work.act[0]`` (``work.slip``) and its frictional
+    rate ``(ok, v_b, v_m)``; ok is False when no slip state is consistent."""
     pb, pm, x0, ym = run.phi_b, run.phi_m, run.x0, run.y_m
     sqb, sqm = opts.sqrt_winv_b, opts.sqrt_winv_m
     table, act, slip = model.pairs, work.act, work.slip
     if not friction_modes(table, act, 1, pb, pm, x0, ym, sqb, sqm, opts.friction, slip, v0b, v0m):
-        return False
+        return False, 0.0, 0.0
     fb, fm, _, _ = velocity(table, act, 1, pb, pm, x0, ym, sqb, sqm, opts.friction, slip)
-    return rate_keeps_contacts(
-        table, work.ev, work.cand, nc, act, 1, pb, pm, x0, ym, fb, fm, work.rays
-    )
+    return True, fb, fm
+
+
+@njit_no_refcount
+def _one_consistent(
+    model: Model, opts: Options, run: Run, work: Work, nc: int, v0b: float, v0m: float
+) -> tuple[bool, float, float]:
+    """Is the one contact ``work.act[0]`` consistent under friction (a slip state that
+    pushes and slips its way, and a rate that cuts into no other touching pair)? Returns
+    ``(consistent, v_b, v_m)`` with its frictional rate."""
+    ok, fb, fm = _one_contact_rate(model, opts, run, work, v0b, v0m)
+    keeps = ok and rate_keeps_contacts(
+        model.pairs, work.ev, work.cand, nc, work.act, 1, run.phi_b, run.phi_m, run.x0,
+        run.y_m, fb, fm, work.rays,
+    )  # fmt: skip
+    return keeps, fb, fm
 
 
 @njit(cache=True, nogil=True)  # choose_motion allocates: needs NRT

@@ -90,24 +90,6 @@ def adjacent_gap(
 
 
 @njit_no_refcount
-def beyond_convex_corner(
-    row: FloatArray, cb: float, sb: float, cm: float, sm: float, x0: float, y_m: float, tol: float
-) -> bool:
-    """Is the pair's vertex past a convex corner of its edge, on the outer side (to within
-    ``tol``, D) of the line of the edge that meets this one there?
-
-    Near a convex corner the other part is the intersection of the two edges' inner
-    half-planes: a vertex behind this edge's line but outside the neighbour's is outside the
-    part (for example sliding along the neighbour), so this pair's gap is no contact.
-    """
-    g_start, convex_start = adjacent_gap(row, cb, sb, cm, sm, x0, y_m, False)
-    if convex_start and g_start > -tol:
-        return True
-    g_end, convex_end = adjacent_gap(row, cb, sb, cm, sm, x0, y_m, True)
-    return convex_end and g_end > -tol
-
-
-@njit_no_refcount
 def clipped_gap(
     row: FloatArray, g: float, cb: float, sb: float, cm: float, sm: float, x0: float, y_m: float
 ) -> float:
@@ -130,6 +112,13 @@ def clipped_gap(
 
 
 @njit_no_refcount
+def past_reflex_end(row: FloatArray, u: float) -> bool:
+    """Is the pair's vertex past a reflex end of its edge by more than ``U_CORNER`` (where
+    the neighbouring edge's own pair takes over)?"""
+    return (u < -U_CORNER and row[14] < 0.5) or (u > 1.0 + U_CORNER and row[15] < 0.5)
+
+
+@njit_no_refcount
 def meets_part(
     row: FloatArray,
     u: float,
@@ -144,16 +133,16 @@ def meets_part(
     """Would the pair's vertex, behind its edge's line at edge parameter ``u``, be inside the
     other part (near this edge)?
 
-    Past a convex end of the edge the neighbouring edge decides (:func:`beyond_convex_corner`:
-    exact at any distance along the line). Past a reflex end (a notch) the neighbour's own
-    pair takes over, and this edge counts only within ``U_CORNER`` of its end (a tip reaching
-    the bottom of a notch).
+    Past a convex end of the edge the neighbouring edge decides: outside its line (to within
+    ``tol``, D) the vertex is outside the part, exact at any distance along the line. Past a
+    reflex end (a notch) the neighbour's own pair takes over, and this edge counts only
+    within ``U_CORNER`` of its end (a tip reaching the bottom of a notch).
     """
-    if u < -U_CORNER and row[14] < 0.5:
+    if past_reflex_end(row, u):
         return False
-    if u > 1.0 + U_CORNER and row[15] < 0.5:
-        return False
-    return not beyond_convex_corner(row, cb, sb, cm, sm, x0, y_m, tol)
+    # The neighbours' lines alone (clipped_gap of a vertex infinitely deep behind this
+    # edge's line): outside one of them at a convex end, the vertex is beside the part.
+    return clipped_gap(row, -math.inf, cb, sb, cm, sm, x0, y_m) <= -tol
 
 
 @njit_no_refcount

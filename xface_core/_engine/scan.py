@@ -21,7 +21,7 @@ from .events import (
     step_to,
 )
 from .motion import slip_margin
-from .pairs import clipped_gap, eval_pair, pair_at
+from .pairs import clipped_gap, eval_pair, pair_at, past_reflex_end
 from .records import (
     CORNER_REACH,
     E_BELOW_SEAT,
@@ -33,7 +33,6 @@ from .records import (
     E_SPUN,
     E_TURN,
     FREE,
-    U_CORNER,
     U_TOL,
     FloatArray,
     Options,
@@ -182,8 +181,7 @@ def _is_contact(seg: Segment, step: Step, i: int, hk: float, thr: float) -> bool
     gk, uk, _, _, _, _, _, _, _ = pair_at(seg.pairs, i, pbk, pmk, seg.x0, step.y_m - hk)
     if gk < thr - CORNER_REACH:
         return False
-    row = seg.pairs[i]
-    return not ((uk < -U_CORNER and row[14] < 0.5) or (uk > 1.0 + U_CORNER and row[15] < 0.5))
+    return not past_reflex_end(seg.pairs[i], uk)
 
 
 @njit_no_refcount
