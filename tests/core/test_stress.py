@@ -271,3 +271,21 @@ def test_a_vertex_slid_off_a_nearly_flat_corner_does_not_fall_through() -> None:
         margins=False,
     )
     assert max_overlap(p) < PENETRATION_AREA
+
+
+# Two convex corners crossing like an X inside one step (docs/contact.md, rule 3b): a
+# vertex went into the other part past a corner and out again through the next edge in 8 %
+# of the step, between the coarse inside-step samples, and the step ended with the parts
+# crossed and no vertex inside either.
+
+
+def test_two_corners_crossing_within_a_step_are_caught_at_a_stiff_base() -> None:
+    p = xf.predict(xf.s_face(0.4794, 0.0), 0.444, 1.424, damping_ratio=1e4, margins=False)
+    assert max_overlap(p) < PENETRATION_AREA  # was 0.02 D^2
+
+
+def test_two_corners_crossing_within_a_step_are_caught_with_the_base_held() -> None:
+    p = xf.predict(
+        xf.s_face(7.38, 0.0), -0.637, 0.0651, damping_ratio=math.inf, friction=1.32, margins=False
+    )
+    assert max_overlap(p) < PENETRATION_AREA  # was 2.4e-5 D^2

@@ -181,6 +181,79 @@ def _side_of_all(mx: float, my: float, rays: FloatArray) -> bool:
 
 
 @njit_no_refcount
+def _cone_admits(
+    row: FloatArray,
+    at_end: bool,
+    cv: float,
+    sv: float,
+    ck: float,
+    sk: float,
+    x0: float,
+    y_m: float,
+    dx: float,
+    dy: float,
+    tol: float,
+    rays: FloatArray,
+) -> bool:
+    """Is the offset d = (dx, dy) (D) of the pair's vertex V from the corner K of its edge
+    (the end corner if ``at_end``) one at which the parts keep apart near V and K, to within
+    ``tol`` (D)? (``cv, sv``/``ck, sk``: cos and sin of the angles of V's and K's parts;
+    ``rays``: a (4, 2) scratch array.)
+
+    Near K and V the parts are the wedges W_K (the edge owner's interior angle at K) and
+    W_V (the vertex owner's at V):
+    - both convex: the parts overlap iff d lies inside the cone spanned by W_K and -W_V, so
+      d is admissible iff some line through the corner has that cone on one side and d on
+      the other (a union of half-planes: the corners may slip past each other either way);
+    - K reflex (V in a notch): d must stay in the notch, on the outer side of both edges;
+    - V reflex: the same with the roles swapped.
+    """
+    moving_v = row[0] == 0.0  # kind 0: moving vertex on a base edge
+    # The edge owner's wedge at K, from the edge directions in and out of K (a
+    # counter-clockwise polygon has its inside on the left): rays t_out and -t_in.
+    if at_end:
+        tin_x, tin_y = -row[8], row[7]
+        tout_x, tout_y = -row[13], row[12]
+        k_convex = row[15] > 0.5
+    else:
+        tin_x, tin_y = -row[11], row[10]
+        tout_x, tout_y = -row[8], row[7]
+        k_convex = row[14] > 0.5
+    ax, ay = _to_world(row, tout_x, tout_y, not moving_v, ck, sk, x0, y_m, False)
+    bx, by = _to_world(row, -tin_x, -tin_y, not moving_v, ck, sk, x0, y_m, False)
+    # The vertex owner's wedge at V: rays to its next and previous vertices.
+    nx_, ny_ = _to_world(row, row[16], row[17], moving_v, cv, sv, x0, y_m, False)
+    px_, py_ = _to_world(row, row[18], row[19], moving_v, cv, sv, x0, y_m, False)
+    v_convex = (-px_) * ny_ - (-py_) * nx_ > 0.0
+    if not k_convex:
+        # V sits in a notch of K's part: stay on the outer side of both of its edges (the
+        # outward normal of an edge is its direction turned clockwise).
+        return _outside(ay, -ax, dx, dy, tol) and _outside(-by, bx, dx, dy, tol)
+    if not v_convex:
+        # K sits in a notch of V's part: K (at -p relative to V) stays outside both of V's
+        # edges, V -> next (direction n_) and previous -> V (direction -p_).
+        return _outside(-ny_, nx_, dx, dy, tol) and _outside(py_, -px_, dx, dy, tol)
+    rays[0, 0], rays[0, 1] = ax, ay
+    rays[1, 0], rays[1, 1] = bx, by
+    rays[2, 0], rays[2, 1] = -nx_, -ny_
+    rays[3, 0], rays[3, 1] = -px_, -py_
+    for k in range(4):
+        for sign in (1.0, -1.0):
+            mx, my = -sign * rays[k, 1], sign * rays[k, 0]
+            if _side_of_all(mx, my, rays) and _outside(-mx, -my, dx, dy, tol):
+                return True
+    return False
+
+
+@njit_no_refcount
+def _part_angles(row: FloatArray, pb: float, pm: float) -> tuple[float, float, float, float]:
+    """``(cv, sv, ck, sk)``: cos and sin of the angle of the vertex's part and of the edge's."""
+    if row[0] == 0.0:
+        return math.cos(pm), math.sin(pm), math.cos(pb), math.sin(pb)
+    return math.cos(pb), math.sin(pb), math.cos(pm), math.sin(pm)
+
+
+@njit_no_refcount
 def corner_motion_admissible(
     row: FloatArray,
     at_end: bool,
@@ -193,20 +266,13 @@ def corner_motion_admissible(
     vertex V and the corner K of its edge (the end corner if ``at_end``) from
     interpenetrating? (``rays``: a (4, 2) scratch array.)
 
-    Exact to first order for vertex-on-vertex contact. Near K and V the parts are the wedges
-    W_K (the edge owner's interior angle at K) and W_V (the vertex owner's at V). With d the
-    move of V relative to K:
-    - both convex: the parts overlap iff d lies inside the cone spanned by W_K and -W_V, so
-      d is admissible iff some line through the corner has that cone on one side and d on
-      the other (a union of half-planes: the corners may slip past each other either way);
-    - K reflex (V in a notch): d must stay in the notch, on the outer side of both edges;
-    - V reflex: the same with the roles swapped.
+    Exact to first order for vertex-on-vertex contact: the move d of V relative to K is
+    judged by :func:`_cone_admits` as if V were at K.
     """
     moving_v = row[0] == 0.0  # kind 0: moving vertex on a base edge
     pb0, pm0, y0 = start
     pb1, pm1, y1 = trial
-    cv0, sv0 = (math.cos(pm0), math.sin(pm0)) if moving_v else (math.cos(pb0), math.sin(pb0))
-    ck0, sk0 = (math.cos(pb0), math.sin(pb0)) if moving_v else (math.cos(pm0), math.sin(pm0))
+    cv0, sv0, ck0, sk0 = _part_angles(row, pb0, pm0)
     kx, ky = (row[5], row[6]) if at_end else (row[3], row[4])
     # The move of V relative to K to first order (a finite difference of the positions
     # would carry the move's curvature, about dd^2 |v|^2, into a test of its direction:
@@ -228,40 +294,32 @@ def corner_motion_admissible(
     # Round-off of d is relative to the moves of V and K themselves: a vertex held in a
     # notch moves with it, and d is then zero to 1e-22.
     tol = 1e-6 * (math.hypot(dvx, dvy) + math.hypot(dkx, dky))
-    # The edge owner's wedge at K, from the edge directions in and out of K (a
-    # counter-clockwise polygon has its inside on the left): rays t_out and -t_in.
-    if at_end:
-        tin_x, tin_y = -row[8], row[7]
-        tout_x, tout_y = -row[13], row[12]
-        k_convex = row[15] > 0.5
-    else:
-        tin_x, tin_y = -row[11], row[10]
-        tout_x, tout_y = -row[8], row[7]
-        k_convex = row[14] > 0.5
-    ax, ay = _to_world(row, tout_x, tout_y, not moving_v, ck0, sk0, x0, y0, False)
-    bx, by = _to_world(row, -tin_x, -tin_y, not moving_v, ck0, sk0, x0, y0, False)
-    # The vertex owner's wedge at V: rays to its next and previous vertices.
-    nx_, ny_ = _to_world(row, row[16], row[17], moving_v, cv0, sv0, x0, y0, False)
-    px_, py_ = _to_world(row, row[18], row[19], moving_v, cv0, sv0, x0, y0, False)
-    v_convex = (-px_) * ny_ - (-py_) * nx_ > 0.0
-    if not k_convex:
-        # V sits in a notch of K's part: stay on the outer side of both of its edges (the
-        # outward normal of an edge is its direction turned clockwise).
-        return _outside(ay, -ax, dx, dy, tol) and _outside(-by, bx, dx, dy, tol)
-    if not v_convex:
-        # K sits in a notch of V's part: K (at -p relative to V) stays outside both of V's
-        # edges, V -> next (direction n_) and previous -> V (direction -p_).
-        return _outside(-ny_, nx_, dx, dy, tol) and _outside(py_, -px_, dx, dy, tol)
-    rays[0, 0], rays[0, 1] = ax, ay
-    rays[1, 0], rays[1, 1] = bx, by
-    rays[2, 0], rays[2, 1] = -nx_, -ny_
-    rays[3, 0], rays[3, 1] = -px_, -py_
-    for k in range(4):
-        for sign in (1.0, -1.0):
-            mx, my = -sign * rays[k, 1], sign * rays[k, 0]
-            if _side_of_all(mx, my, rays) and _outside(-mx, -my, dx, dy, tol):
-                return True
-    return False
+    return _cone_admits(row, at_end, cv0, sv0, ck0, sk0, x0, y0, dx, dy, tol, rays)
+
+
+@njit_no_refcount
+def wedges_cross(row: FloatArray, cb: float, sb: float, cm: float, sm: float, x0: float,
+                 y_m: float, margin: float, rays: FloatArray) -> bool:  # fmt: skip
+    """Do the parts overlap near the pair's vertex V and the start corner K of its edge,
+    deeper than ``margin`` (D), with both corners convex?
+
+    Two convex corners can cross like an X, neither vertex inside the other part and an
+    edge of each cutting through the other; no gap of a vertex shows it. Then V - K lies
+    inside the cone of :func:`_cone_admits`. Judged only where V is nearer K than half of
+    K's edge (the wedges stand for the parts there). Every (vertex, corner) meeting is
+    some pair's start corner, so the start corners of all pairs cover them all.
+    """
+    if row[14] < 0.5 or row[18] * row[17] - row[19] * row[16] >= 0.0:
+        return False  # K or V reflex: a vertex near it is inside by its own gaps
+    moving_v = row[0] == 0.0
+    cv, sv, ck, sk = (cm, sm, cb, sb) if moving_v else (cb, sb, cm, sm)
+    vx, vy = _to_world(row, row[1], row[2], moving_v, cv, sv, x0, y_m, True)
+    wx, wy = _to_world(row, row[3], row[4], not moving_v, ck, sk, x0, y_m, True)
+    dx, dy = vx - wx, vy - wy
+    dist = math.hypot(dx, dy)
+    if dist <= CORNER_REACH or dist > 0.5 * math.hypot(row[5] - row[3], row[6] - row[4]):
+        return False
+    return not _cone_admits(row, False, cv, sv, ck, sk, x0, y_m, dx, dy, margin, rays)
 
 
 @njit_no_refcount

@@ -112,6 +112,12 @@ PUSH_SLACK = 1e-3
 #: then cut into each other unnoticed.
 TOUCH_WINDOW = 64.0
 MAX_EXCLUDED = 8  # pairs kept out of the touching set at one point of the path
+#: Every trial step samples the contact functions of pairs near their edge at k / 4 of the
+#: step (a vertex in and out again past a corner within the step) ...
+COARSE_SAMPLES = 3
+#: ... and at k / 32 when its end shows two corners crossed like an X (the vertex that went
+#: in and out again did so in a sliver of the step; seen: 8 % of it).
+FINE_SAMPLES = 31
 FOLD_RISE = 1e-6  # D: a located turn's fold must lie this close to the turn's height
 FOLD_REACH = 1e-3  # D: solve_fold accepts a fold only this close to its start height
 
@@ -223,6 +229,8 @@ class Work(NamedTuple):
     """Friction state (:class:`~xface_core.codes.SlipState`) of active contacts 0 and 1."""
     rays: FloatArray
     """(4, 2) scratch of the corner test (:func:`~.pairs.corner_motion_admissible`)."""
+    samples: FloatArray
+    """(FINE_SAMPLES, 2) scratch: (phi_B, phi_M) at the samples inside a trial step."""
 
 
 @njit(cache=True, nogil=True)
@@ -243,4 +251,5 @@ def new_work(model: Model, opts: Options) -> Work:
         np.full(4, -1, dtype=np.int64),
         np.full(2, FREE, dtype=np.int64),
         np.zeros((4, 2)),
+        np.zeros((FINE_SAMPLES, 2)),
     )

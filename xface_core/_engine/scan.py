@@ -21,8 +21,9 @@ from .events import (
     step_to,
 )
 from .motion import slip_margin
-from .pairs import clipped_gap, eval_pair, pair_at, past_reflex_end
+from .pairs import clipped_gap, eval_pair, pair_at, past_reflex_end, wedges_cross
 from .records import (
+    COARSE_SAMPLES,
     CORNER_REACH,
     E_BELOW_SEAT,
     E_CONTACT,
@@ -32,7 +33,9 @@ from .records import (
     E_SLIP,
     E_SPUN,
     E_TURN,
+    FINE_SAMPLES,
     FREE,
+    TOUCH_WINDOW,
     U_TOL,
     FloatArray,
     Options,
@@ -99,13 +102,14 @@ def _slip_events(
 @njit_no_refcount
 def _contact_events(
     opts: Options, seg: Segment, step: Step, work: Work, nb: float, nm: float, best: Event
-) -> Event:
+) -> tuple[Event, bool]:
     """New contacts: an inactive pair's gap crosses its threshold inside the edge's span.
-    Also fills every pair's gap and edge parameter at the step's end (``work.g_next``)."""
+    Also fills every pair's gap and edge parameter at the step's end (``work.g_next``), and
+    says whether two corners cross there that did not at the start (:func:`_crossing`)."""
     y1 = step.y_m - step.h
     # Arrays taken out of the records once: numba counts references on every attribute read.
     thr, g_prev, u_prev = work.thr, work.g_prev, work.u_prev
-    g_next, u_next = work.g_next, work.u_next
+    g_next, u_next, rays = work.g_next, work.u_next, work.rays
     pairs, act, n_act, x0 = seg.pairs, seg.act, seg.n_active, seg.x0
     tol = opts.event_tol
     cb1, sb1, cm1, sm1 = math.cos(nb), math.sin(nb), math.cos(nm), math.sin(nm)
@@ -121,11 +125,15 @@ def _contact_events(
         math.cos(step.phi_m),
         math.sin(step.phi_m),
     )
+    crossed = False
     for i in range(pairs.shape[0]):
         row = pairs[i]
         g1, u1, _, _, _, _, _, _, _ = eval_pair(row, cb1, sb1, cm1, sm1, x0, y1)
         g_next[i] = g1
         u_next[i] = u1
+        if not crossed:
+            crossed = _crossing(opts, rays, row, g1, u1, (cb1, sb1, cm1, sm1, y1),
+                                (cb0, sb0, cm0, sm0, step.y_m), x0)  # fmt: skip
         if (n_act > 0 and act[0] == i) or (n_act > 1 and act[1] == i):
             continue
         # The event function is the gap with the edge's convex corners clipped on
@@ -168,7 +176,7 @@ def _contact_events(
             continue
         if _is_contact(seg, step, i, hk, thr[i]):
             best = Event(E_CONTACT, i, hk)
-    return best
+    return best, crossed
 
 
 @njit_no_refcount
@@ -221,10 +229,6 @@ def _contacts_before(opts: Options, seg: Segment, step: Step, work: Work, best: 
     return best
 
 
-#: Fractions of a step at which :func:`_contacts_inside_step` samples the contact functions.
-INSIDE_SAMPLES = (0.25, 0.5, 0.75)
-
-
 @njit_no_refcount
 def _reach(row: FloatArray) -> float:
     """Largest distance (D) of the pair's vertex or edge ends from their pivots."""
@@ -242,22 +246,30 @@ def _segment_distance(row: FloatArray, g: float, u: float) -> float:
 
 @njit_no_refcount
 def _contacts_inside_step(
-    opts: Options, seg: Segment, step: Step, work: Work, nb: float, nm: float, best: Event
+    opts: Options,
+    seg: Segment,
+    step: Step,
+    work: Work,
+    nb: float,
+    nm: float,
+    best: Event,
+    n_samples: int,
 ) -> Event:
     """A vertex that goes in past a corner and out again within the step (the contact
     function above its threshold at both ends, below it in between: a base tip cutting off
     a corner of the moving part in one 0.025 D step was seen). Pairs whose vertex comes
-    within a step's travel of their edge are sampled at ``INSIDE_SAMPLES`` of the step (up
-    to the earliest event found); a dip is located like any contact."""
+    within a step's travel of their edge are sampled at ``k / (n_samples + 1)`` of the step
+    (up to the earliest event found); a dip is located like any contact."""
     h_end = step.h if best.kind == E_NONE else best.h
     if h_end <= 4.0 * opts.event_tol:
         return best
-    thr, g_prev, u_prev, g_next, u_next = (
+    thr, g_prev, u_prev, g_next, u_next, samples = (
         work.thr,
         work.g_prev,
         work.u_prev,
         work.g_next,
         work.u_next,
+        work.samples,
     )
     pairs, act, n_act, x0 = seg.pairs, seg.act, seg.n_active, seg.x0
     turn = abs(nb - step.phi_b) + abs(nm - step.phi_m)
@@ -270,7 +282,6 @@ def _contacts_inside_step(
     y1 = step.y_m - step.h
     cb1, sb1, cm1, sm1 = math.cos(nb), math.sin(nb), math.cos(nm), math.sin(nm)
     sampled = False
-    b0 = b1 = b2 = m0 = m1 = m2 = 0.0
     for i in range(pairs.shape[0]):
         if (n_act > 0 and act[0] == i) or (n_act > 1 and act[1] == i):
             continue
@@ -289,15 +300,15 @@ def _contacts_inside_step(
         if clipped_gap(row, g_prev[i], cb0, sb0, cm0, sm0, x0, step.y_m) <= thr[i]:
             continue  # inside at the start already
         if not sampled:
-            b0, m0, _, _, _ = step_to(seg, step, INSIDE_SAMPLES[0] * h_end)
-            b1, m1, _, _, _ = step_to(seg, step, INSIDE_SAMPLES[1] * h_end)
-            b2, m2, _, _, _ = step_to(seg, step, INSIDE_SAMPLES[2] * h_end)
+            # The states at the samples, computed once and shared by every pair.
+            for k in range(n_samples):
+                sb_k, sm_k, _, _, _ = step_to(seg, step, (k + 1) / (n_samples + 1) * h_end)
+                samples[k, 0], samples[k, 1] = sb_k, sm_k
             sampled = True
-        for k in range(3):
-            t = INSIDE_SAMPLES[k] * h_end
-            eb = b0 if k == 0 else (b1 if k == 1 else b2)
-            em = m0 if k == 0 else (m1 if k == 1 else m2)
-            if event_value(seg, E_CONTACT, i, 0, thr[i], eb, em, step.y_m - t) > 0.0:
+        for k in range(n_samples):
+            t = (k + 1) / (n_samples + 1) * h_end
+            if event_value(seg, E_CONTACT, i, 0, thr[i], samples[k, 0], samples[k, 1],
+                           step.y_m - t) > 0.0:  # fmt: skip
                 continue
             _, hk = locate(
                 seg,
@@ -317,14 +328,77 @@ def _contacts_inside_step(
 
 
 @njit_no_refcount
+def _crossing(
+    opts: Options,
+    rays: FloatArray,
+    row: FloatArray,
+    g: float,
+    u: float,
+    now: tuple[float, float, float, float, float],
+    start: tuple[float, float, float, float, float],
+    x0: float,
+) -> bool:
+    """Do the pair's vertex and the start corner of its edge cross like an X in the state
+    ``now`` (cos and sin of phi_B and phi_M, and y_M; the pair's gap ``g`` and edge parameter
+    ``u`` there), though they did not at the ``start`` of the step?
+
+    :func:`~.pairs.wedges_cross`: no vertex is inside the other part then, so no contact
+    function shows it; the vertex that went in and out again on the way did, inside the
+    step. That test looks within half an edge of the corner, so |u| <= 1/2 and
+    |g| <= half the edge's length: both screen the pair first.
+    """
+    if abs(u) > 0.5 or g * g > 0.25 * ((row[5] - row[3]) ** 2 + (row[6] - row[4]) ** 2):
+        return False
+    margin = TOUCH_WINDOW * opts.touch_tol
+    cb, sb, cm, sm, y = now
+    if not wedges_cross(row, cb, sb, cm, sm, x0, y, margin, rays):
+        return False
+    cb, sb, cm, sm, y = start
+    return not wedges_cross(row, cb, sb, cm, sm, x0, y, margin, rays)
+
+
+@njit_no_refcount
+def _crossed_at_event(opts: Options, seg: Segment, step: Step, work: Work, nb: float,
+                      nm: float, best: Event) -> bool:  # fmt: skip
+    """:func:`_crossing` at the state of the earliest event found (the step's end has it
+    from :func:`_contact_events`)."""
+    eb, em, _, _, _ = step_to(seg, step, best.h)
+    ey = step.y_m - best.h
+    pairs, x0, u_prev, u_next, rays = seg.pairs, seg.x0, work.u_prev, work.u_next, work.rays
+    now = (math.cos(eb), math.sin(eb), math.cos(em), math.sin(em), ey)
+    cb0, sb0 = math.cos(step.phi_b), math.sin(step.phi_b)
+    start = (cb0, sb0, math.cos(step.phi_m), math.sin(step.phi_m), step.y_m)
+    turn = abs(nb - step.phi_b) + abs(nm - step.phi_m)
+    for i in range(pairs.shape[0]):
+        row = pairs[i]
+        # Only a pair with u near the corner at either end of the step can have it there
+        # at the event (the vertex moves by at most h + turn * reach relative to the edge;
+        # twice that bounds the change of u times the edge's length).
+        travel = 2.0 * (best.h + turn * _reach(row))
+        length = math.hypot(row[5] - row[3], row[6] - row[4])
+        if min(abs(u_prev[i]), abs(u_next[i])) - 0.5 > travel / length:
+            continue
+        g, u, _, _, _, _, _, _, _ = eval_pair(row, now[0], now[1], now[2], now[3], x0, ey)
+        if _crossing(opts, rays, row, g, u, now, start, x0):
+            return True
+    return False
+
+
+@njit_no_refcount
 def find_event(opts: Options, seg: Segment, step: Step, work: Work, nb: float, nm: float) -> Event:
     """The earliest event in the trial step that ends at ``(nb, nm)``, or ``NO_EVENT``."""
     best = _active_events(opts, seg, step, nb, nm, NO_EVENT)
     if opts.friction > 0.0:
         best = _slip_events(opts, seg, step, nb, nm, best)
-    best = _contact_events(opts, seg, step, work, nb, nm, best)
-    best = _contacts_inside_step(opts, seg, step, work, nb, nm, best)
+    best, crossed = _contact_events(opts, seg, step, work, nb, nm, best)
+    best = _contacts_inside_step(opts, seg, step, work, nb, nm, best, COARSE_SAMPLES)
     best = _contacts_before(opts, seg, step, work, best)
+    if best.kind != E_NONE:
+        crossed = _crossed_at_event(opts, seg, step, work, nb, nm, best)
+    if crossed:
+        # Two corners cross like an X where the step ends: a vertex went in and out again
+        # in a sliver of the step that the coarse samples missed.
+        best = _contacts_inside_step(opts, seg, step, work, nb, nm, best, FINE_SAMPLES)
     y1 = step.y_m - step.h
     if y1 < seg.y_floor:
         # y_M falls linearly with the descent: the crossing is known exactly.

@@ -1,5 +1,6 @@
 """pairs.py's corner geometry: the clipped gap, whether a crossing meets the part, the
-distance to an edge's corner and the vertex-on-vertex wedge test (docs/contact.md)."""
+distance to an edge's corner, the vertex-on-vertex wedge test and two corners crossing like
+an X (docs/contact.md)."""
 
 from __future__ import annotations
 
@@ -13,6 +14,7 @@ from xface_core._engine.pairs import (
     corner_motion_admissible,
     meets_part,
     pair_at,
+    wedges_cross,
 )
 from xface_core.contact import MOVING_VERTEX, pair_table
 
@@ -100,3 +102,33 @@ def test_the_corners_do_not_slip_the_way_that_cuts_in() -> None:
 
 def test_pure_descent_drives_the_corners_into_each_other() -> None:
     assert not _admissible(40, 0.0, 0.0)
+
+
+# Two corners crossing like an X: the base's top-right corner K = (0.5, 0) and the moving
+# square's corner V (body (-0.5, 0), its edges at 90 and 180 degrees when phi_M = 0), V put
+# 0.1 D right of the base's wall and 0.05 D below its top. Turned by phi_M its edges point
+# at 90 + phi_M and 180 + phi_M degrees.
+V_AT = (0.6, -0.05)
+MOVING_V = _pair(MOVING_VERTEX, (-0.5, 0.0), (0.5, 0.0))  # V on the top edge, K its start
+BASE_K = _pair(1 - MOVING_VERTEX, (0.5, 0.0), (-0.5, 0.0))  # K on V's edge, V its start
+
+
+def _crossing(pair: int, phi_m_deg: float) -> bool:
+    phi_m = np.radians(phi_m_deg)
+    x0 = V_AT[0] - 0.5 * np.cos(phi_m)
+    y_m = V_AT[1] - 0.5 * np.sin(phi_m)
+    cm, sm = float(np.cos(phi_m)), float(np.sin(phi_m))
+    return wedges_cross(TABLE[pair], 1.0, 0.0, cm, sm, x0, y_m, 1e-9, np.empty((4, 2)))
+
+
+@pytest.mark.parametrize("pair", [MOVING_V, BASE_K])
+def test_two_corners_crossing_like_an_x_overlap(pair: int) -> None:
+    # V's wedge spans 160..250 degrees: K (at 153 degrees from V) is outside it and V is
+    # outside the base, yet V's edge at 160 degrees enters the base through its wall.
+    assert _crossing(pair, 70.0)
+
+
+@pytest.mark.parametrize("pair", [MOVING_V, BASE_K])
+def test_corners_turned_away_from_each_other_do_not_overlap(pair: int) -> None:
+    # V's wedge spans 0..90 degrees, away from the base.
+    assert not _crossing(pair, -90.0)

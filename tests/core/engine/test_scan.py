@@ -11,6 +11,7 @@ from xface_core._engine.records import (
     E_BELOW_SEAT,
     E_CONTACT,
     E_NONE,
+    FINE_SAMPLES,
     Work,
     make_options,
 )
@@ -32,7 +33,7 @@ def _work(table: np.ndarray, pb: float, pm: float, x0: float, ym: float) -> Work
         ev, ev[:, 0].copy(), ev[:, 1].copy(), np.zeros(n), np.zeros(n), thr,
         np.zeros(16, dtype=np.int64), np.full(8, -1, dtype=np.int64),
         np.array([0, -1, -1, -1], dtype=np.int64), np.zeros(2, dtype=np.int64),
-        np.zeros((4, 2)),
+        np.zeros((4, 2)), np.zeros((FINE_SAMPLES, 2)),
     )  # fmt: skip
 
 
