@@ -289,3 +289,18 @@ def test_two_corners_crossing_within_a_step_are_caught_with_the_base_held() -> N
         xf.s_face(7.38, 0.0), -0.637, 0.0651, damping_ratio=math.inf, friction=1.32, margins=False
     )
     assert max_overlap(p) < PENETRATION_AREA  # was 2.4e-5 D^2
+
+
+def test_two_frictional_contacts_at_a_fold_end_the_run_instead_of_cycling() -> None:
+    # A flush line contact at a fold of its path: the slip states read a short move ahead
+    # were contradicted at the state itself, and choosing again chose the same (the event
+    # budget ran out: UNRESOLVED). The path turns there: a jam.
+    p = xf.predict(
+        xf.v_face(0.43878887291513347, 0.0),
+        -0.20802820102530561,
+        1.414045773172991,
+        friction=2.4408367633185755,
+        margins=False,
+    )
+    assert p.outcome is Outcome.BAD_MATE
+    assert p.counters.events < 10

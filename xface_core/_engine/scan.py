@@ -95,7 +95,16 @@ def _slip_events(
         )  # fmt: skip
         if margin < 0.0:
             _, hk = locate(seg, step, opts.event_tol, E_SLIP, seg.act[k], k, 0.0)
-            best = earlier(Event(E_SLIP, seg.act[k], hk), best)
+            kind = E_SLIP
+            if hk == 0.0 and seg.n_active == 2:
+                # Two contacts fix the rate, and their slip states were read from it a
+                # short move ahead (motion.friction_modes); contradicted already at the
+                # start, the rate turns over within that move: a fold of the contact path
+                # (its normals line up with the pivots), where choosing again would choose
+                # the same and fire again, forever (V H/D 0.439, r_p 0, mu 2.44 at
+                # x0 = -0.208 D, theta0 = 1.414: the event budget). The path turns here.
+                kind = E_TURN
+            best = earlier(Event(kind, seg.act[k], hk), best)
     return best
 
 
