@@ -122,7 +122,7 @@ def run_stress(
 
     def on_diagnostics(array: DiagnosticArray) -> None:
         for status in array.status:
-            if status.name == "xface_predictor: predictor":
+            if status.name == "/xface_predictor: predictor":
                 with lock:
                     diagnostics.append({kv.key: kv.value for kv in status.values})
 

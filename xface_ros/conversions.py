@@ -30,7 +30,6 @@ from xface_core.result import Prediction
 from xface_ros.decision import PoseInput, Predicted, Rejected
 
 __all__ = [
-    "STATUS_NAME",
     "input_error_status",
     "key_value",
     "markers_msg",
@@ -42,10 +41,14 @@ __all__ = [
     "prediction_status",
     "seated_pose_msg",
     "stamp_to_ns",
+    "status_name",
 ]
 
-#: Name of every DiagnosticStatus on ``prediction/status``.
-STATUS_NAME = "xface_predictor: prediction"
+
+def status_name(node_fqn: str) -> str:
+    """Name of every DiagnosticStatus on ``prediction/status``: the node's fully qualified name
+    (e.g. ``/left/dock_left``), so statuses of several nodes can be told apart."""
+    return f"{node_fqn}: prediction"
 
 
 def stamp_to_ns(stamp: Time) -> int:
@@ -98,7 +101,7 @@ def _stamp_text(stamp_ns: int) -> str:
     return f"{sec}.{nanosec:09d}"
 
 
-def prediction_status(predicted: Predicted, *, hardware_id: str) -> DiagnosticStatus:
+def prediction_status(predicted: Predicted, *, name: str, hardware_id: str) -> DiagnosticStatus:
     """The ``prediction/status`` message of a prediction.
 
     Level OK when accepted, WARN otherwise (will not seat, or seats without the required
@@ -145,7 +148,7 @@ def prediction_status(predicted: Predicted, *, hardware_id: str) -> DiagnosticSt
         key_value("r_p", design.r_p),
     ]
     return DiagnosticStatus(
-        level=level, name=STATUS_NAME, message=message, hardware_id=hardware_id, values=values
+        level=level, name=name, message=message, hardware_id=hardware_id, values=values
     )
 
 
@@ -169,11 +172,11 @@ def _stamp_values(stamp_ns: int) -> list[KeyValue]:
     return [key_value("input_stamp", _stamp_text(stamp_ns)), key_value("input_stamp_ns", stamp_ns)]
 
 
-def input_error_status(rejected: Rejected, *, hardware_id: str) -> DiagnosticStatus:
+def input_error_status(rejected: Rejected, *, name: str, hardware_id: str) -> DiagnosticStatus:
     """The ERROR ``prediction/status`` of a rejected input."""
     return DiagnosticStatus(
         level=DiagnosticStatus.ERROR,
-        name=STATUS_NAME,
+        name=name,
         message=f"INVALID_INPUT: {rejected.code}: {rejected.detail}",
         hardware_id=hardware_id,
         values=[

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import sys
 import threading
+from collections.abc import Sequence
 from typing import Any
 
 import rclpy
@@ -33,7 +34,7 @@ from rclpy.event_handler import QoSMessageLostInfo, SubscriptionEventCallbacks
 from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
-from rclpy.parameter import Parameter
+from rclpy.parameter import Parameter, parameter_dict_from_yaml_file
 from rclpy.qos import (
     DurabilityPolicy,
     HistoryPolicy,
@@ -45,6 +46,7 @@ from rclpy.signals import SignalHandlerOptions
 from std_msgs.msg import Bool, Header
 from visualization_msgs.msg import MarkerArray
 
+from xface_ros.config import params_file_applied, params_file_paths
 from xface_ros.conversions import (
     input_error_status,
     markers_msg,
@@ -53,6 +55,7 @@ from xface_ros.conversions import (
     pose_input,
     prediction_status,
     seated_pose_msg,
+    status_name,
 )
 from xface_ros.decision import Rejected, Verdict, evaluate_query
 from xface_ros.diagnostics import diagnostic_array, predictor_status
@@ -102,10 +105,14 @@ class XfacePredictor(Node):
     also works under a multi-threaded executor.
     """
 
-    def __init__(self, **node_kwargs: Any) -> None:
+    def __init__(self, *, params_files: Sequence[str] = (), **node_kwargs: Any) -> None:
+        """``params_files``: the ``--params-file`` paths of the command line, to warn when none
+        of their values reached this node (see :meth:`_warn_unapplied_params_files`)."""
         super().__init__(NODE_NAME, **node_kwargs)
         # Raises (and so refuses to start) on out-of-range or inconsistent overrides.
         self._config: NodeConfig = declare_parameters(self)
+        self._warn_unapplied_params_files(params_files)
+        self._status_name = status_name(self.get_fully_qualified_name())
         self._config_lock = threading.Lock()
         self.add_on_set_parameters_callback(self._validate_parameters)
         self.add_post_set_parameters_callback(self._apply_parameters)
@@ -170,6 +177,29 @@ class XfacePredictor(Node):
             f"r_p={config.r_p:g} c_B/c_M={config.damping_ratio:g} friction={config.friction:g}"
         )
 
+    def _warn_unapplied_params_files(self, paths: Sequence[str]) -> None:
+        """Warn about a params file whose keys match another node (it then sets nothing here).
+
+        rcl matches a file's keys against the node's name and namespace; a file written for
+        ``xface_predictor`` silently does nothing for ``/left/dock_left``. rclpy keeps the
+        matched overrides in ``_parameter_overrides`` (no public accessor in Jazzy).
+        """
+        overrides = {name: p.value for name, p in self._parameter_overrides.items()}
+        for path in paths:
+            try:
+                msgs = parameter_dict_from_yaml_file(path)
+            except Exception:  # rcl read it already; whatever it was, there is no list to check
+                continue
+            file_values = {
+                name: Parameter.from_parameter_msg(msg).value for name, msg in msgs.items()
+            }
+            if file_values and not params_file_applied(file_values, overrides):
+                self.get_logger().warning(
+                    f"params file {path} sets none of this node's parameters: none of its keys "
+                    f"matches {self.get_fully_qualified_name()}; running on built-in defaults "
+                    f"(key the file with '/**:' or '{self.get_fully_qualified_name()}:')"
+                )
+
     def _validate_parameters(self, params: list[Parameter]) -> SetParametersResult:
         try:
             config_from_values(merged_values(self.config.values(), params))
@@ -211,11 +241,15 @@ class XfacePredictor(Node):
     def _publish_verdict(self, verdict: Verdict, config: NodeConfig) -> None:
         """Publish a streamed pose's verdict with the config it was decided with."""
         if isinstance(verdict, Rejected):
-            self._status_pub.publish(input_error_status(verdict, hardware_id=config.base_frame))
+            self._status_pub.publish(
+                input_error_status(verdict, name=self._status_name, hardware_id=config.base_frame)
+            )
             return
         header = Header(stamp=ns_to_stamp(verdict.stamp_ns), frame_id=config.base_frame)
         self._accepted_pub.publish(Bool(data=verdict.accepted))
-        self._status_pub.publish(prediction_status(verdict, hardware_id=config.base_frame))
+        self._status_pub.publish(
+            prediction_status(verdict, name=self._status_name, hardware_id=config.base_frame)
+        )
         if verdict.seated_pose is not None:
             self._seated_pub.publish(seated_pose_msg(verdict.seated_pose, header))
         prediction = verdict.prediction
@@ -273,7 +307,7 @@ class XfacePredictor(Node):
         status = predictor_status(
             snapshot,
             self.config,
-            node_name=self.get_name(),
+            node_name=self.get_fully_qualified_name(),
             recording_path=self._recorder.path if self._recorder is not None else "",
         )
         stamp = self.get_clock().now().to_msg()
@@ -321,7 +355,7 @@ def main(args: list[str] | None = None) -> int:
     executor = SingleThreadedExecutor()
     code = 0
     try:
-        node = XfacePredictor()
+        node = XfacePredictor(params_files=params_file_paths(sys.argv if args is None else args))
         executor.add_node(node)
         executor.spin()
     except (KeyboardInterrupt, ExternalShutdownException):

@@ -252,11 +252,11 @@ def test_diagnostics_report_rate_age_outcome_latency_and_drops(shared_node: Any)
 
     def recent_predictor_status(array: Any) -> bool:
         return c.stamp_ns(array.header.stamp) > since and any(
-            s.name == "xface_predictor: predictor" for s in array.status
+            s.name == "/xface_predictor: predictor" for s in array.status
         )
 
     array = c.diagnostics.wait_for(recent_predictor_status, timeout_s=10.0)
-    status = next(s for s in array.status if s.name == "xface_predictor: predictor")
+    status = next(s for s in array.status if s.name == "/xface_predictor: predictor")
     v = c.values(status)
     for key in (
         "input_rate_hz", "pose_age_s", "last_outcome", "latency_ms_median", "dropped_total",

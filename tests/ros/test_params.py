@@ -58,7 +58,7 @@ def test_recording_and_diagnostics_period_are_read_only() -> None:
 
 def test_params_file_repeats_the_built_in_defaults() -> None:
     data = yaml.safe_load((ROOT / "config" / "xface.yaml").read_text(encoding="utf-8"))
-    from_file = data["xface_predictor"]["ros__parameters"]
+    from_file = data["/**"]["ros__parameters"]
     assert from_file == defaults()
 
 
