@@ -28,8 +28,10 @@ from xface_core.frames import (
     DockStart,
     NonPlanarOrientationError,
     NonUnitQuaternionError,
+    NotFacingError,
     PlanarPose,
     check_distance,
+    check_facing,
     moving_pose,
     planar_yaw,
     relative_pose_to_start,
@@ -70,6 +72,7 @@ INPUT_ERRORS: dict[str, str] = {
     "unnormalised_quaternion": "the quaternion's norm is not 1",
     "non_planar": "the orientation rolls or pitches beyond max_tilt_rad",
     "absurd_distance": "|x| or |y| is beyond max_distance_widths face widths",
+    "not_facing": "|theta0| > pi/2: the faces do not face each other (yaw 0 is back to back)",
     "no_pose": "no pose has been received yet (service: empty start frame id)",
     "invalid_input": "the simulator refused the start (e.g. the parts interpenetrate)",
     "internal_error": "the simulator failed unexpectedly (a bug: the message has the details)",
@@ -99,7 +102,8 @@ class PoseInput:
     orientation: tuple[float, float, float, float]
 
 
-# --- input checks, in the documented order: frame, finiteness, stamp, quaternion, distance ---
+# --- input checks, in the documented order: frame, finiteness, stamp, quaternion, distance,
+# --- facing ----------------------------------------------------------------------------------
 
 
 def _check_frame(pose: PoseInput, base_frame: str) -> None:
@@ -155,13 +159,19 @@ def check_pose(pose: PoseInput, config: NodeConfig, *, now_ns: int | None) -> Do
     Raises
     ------
     InputRejected
-        The first failed check, in the order frame, finiteness, stamp, quaternion, distance.
+        The first failed check, in the order frame, finiteness, stamp, quaternion, distance,
+        facing (``|theta0| <= pi/2`` after the conversion).
     """
     _check_frame(pose, config.base_frame)
     _check_finite(pose)
     if now_ns is not None:
         _check_stamp(pose.stamp_ns, now_ns, config.input_timeout_s)
-    return relative_pose_to_start(_planar_pose(pose, config))
+    start = relative_pose_to_start(_planar_pose(pose, config))
+    try:
+        check_facing(start.theta0)
+    except NotFacingError as exc:
+        raise InputRejected("not_facing", str(exc)) from exc
+    return start
 
 
 # --- acceptance -----------------------------------------------------------------------------

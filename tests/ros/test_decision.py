@@ -103,6 +103,8 @@ def bad_inputs() -> list[tuple[str, dict[str, Any]]]:
         ("non_planar", {"quaternion": (s, 0.0, 0.0, math.cos(0.2))}),  # roll 0.4 rad
         ("absurd_distance", {"x": 60.0}),  # 1200 widths of 5 cm
         ("absurd_distance", {"y": -51.0}),
+        ("not_facing", {"quaternion": (0.0, 0.0, 0.0, 1.0)}),  # identity: back to back
+        ("not_facing", {"yaw": math.pi / 2 - 0.01}),  # theta0 just past -pi/2
     ]
 
 
@@ -127,6 +129,10 @@ def test_checks_run_in_the_documented_order(config: NodeConfig) -> None:
         check_pose(everything_wrong, config, now_ns=NOW_NS)
     with pytest.raises(InputRejected, match="non_finite"):
         check_pose(replace(everything_wrong, frame_id="xface_base"), config, now_ns=NOW_NS)
+
+
+def test_faces_at_a_right_angle_still_face_each_other(config: NodeConfig) -> None:
+    assert check_pose(pose(yaw=math.pi / 2 + 0.01), config, now_ns=NOW_NS).theta0 < 0.0
 
 
 def test_no_clock_skips_the_stamp_check(config: NodeConfig) -> None:

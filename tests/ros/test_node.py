@@ -223,6 +223,7 @@ def bad_messages() -> list[tuple[str, Any]]:
         ("non_planar", lambda c: at(c, quaternion=tilted)),
         ("absurd_distance", lambda c: at(c, x=100.0)),  # 2000 widths
         ("invalid_input", lambda c: at(c, y=0.0)),  # the parts interpenetrate
+        ("not_facing", lambda c: at(c, quaternion=(0.0, 0.0, 0.0, 1.0))),  # back to back
     ]
 
 
