@@ -15,6 +15,7 @@ import numpy as np
 import numpy.typing as npt
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
+from diagnostic_msgs.srv import SelfTest
 from geometry_msgs.msg import Point, Pose, PoseStamped, Quaternion, Vector3
 from nav_msgs.msg import Path
 from std_msgs.msg import ColorRGBA, Header
@@ -27,7 +28,7 @@ from xface_core.frames import (
 )
 from xface_core.outcome import Outcome
 from xface_core.result import Prediction
-from xface_ros.decision import PoseInput, Predicted, Rejected
+from xface_ros.decision import PoseInput, Predicted, Rejected, Verdict, answer
 
 __all__ = [
     "input_error_status",
@@ -40,8 +41,10 @@ __all__ = [
     "pose_input",
     "prediction_status",
     "seated_pose_msg",
+    "self_test_response",
     "stamp_to_ns",
     "status_name",
+    "verdict_status",
 ]
 
 
@@ -186,6 +189,26 @@ def input_error_status(rejected: Rejected, *, name: str, hardware_id: str) -> Di
             key_value("input_error", rejected.code),
             *_stamp_values(rejected.stamp_ns),
         ],
+    )
+
+
+def verdict_status(verdict: Verdict, *, name: str, hardware_id: str) -> DiagnosticStatus:
+    """The ``prediction/status`` message of any verdict: a prediction or a rejected input."""
+    if isinstance(verdict, Rejected):
+        return input_error_status(verdict, name=name, hardware_id=hardware_id)
+    return prediction_status(verdict, name=name, hardware_id=hardware_id)
+
+
+def self_test_response(
+    verdict: Verdict, *, node_fqn: str, name: str, hardware_id: str
+) -> SelfTest.Response:
+    """The ``predict_status`` answer: ``passed`` 1 when accepted, one status as on
+    ``prediction/status`` plus the ``answer`` value (a key of
+    :data:`~xface_ros.decision.ANSWERS`), ``id`` the node's fully qualified name."""
+    status = verdict_status(verdict, name=name, hardware_id=hardware_id)
+    status.values = [key_value("answer", answer(verdict)), *status.values]
+    return SelfTest.Response(
+        id=node_fqn, passed=b"\x01" if verdict.accepted else b"\x00", status=[status]
     )
 
 

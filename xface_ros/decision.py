@@ -42,6 +42,7 @@ from xface_core.result import Margins, Prediction
 from xface_ros.config import NodeConfig
 
 __all__ = [
+    "ANSWERS",
     "INPUT_ERRORS",
     "Decision",
     "InputRejected",
@@ -53,6 +54,7 @@ __all__ = [
     "StatsSnapshot",
     "StatsWindow",
     "Verdict",
+    "answer",
     "check_pose",
     "combined_margin",
     "decide",
@@ -274,6 +276,30 @@ class Predicted:
 
 
 Verdict = Rejected | Predicted
+
+
+#: The answer a planner reads first (the ``answer`` value of ``predict_status``), with what it
+#: means; the reason and margins come with it.
+ANSWERS: dict[str, str] = {
+    "no_pose": "no pose has been received yet",
+    "stale": "the latest pose is older than input_timeout_s",
+    "invalid": "the pose was rejected (input_error says which check failed)",
+    "will_not_seat": "simulated: it will not seat (outcome and reason say how it ends)",
+    "seats_without_margin": "simulated: it seats, with less than the required margin",
+    "seats": "simulated: it seats (with the required margin)",
+}
+
+#: Rejections with an answer of their own; every other input error answers "invalid".
+_REJECTION_ANSWERS = {"no_pose": "no_pose", "stale_stamp": "stale"}
+
+
+def answer(verdict: Verdict) -> str:
+    """The key of :data:`ANSWERS` for a verdict."""
+    if isinstance(verdict, Rejected):
+        return _REJECTION_ANSWERS.get(verdict.code, "invalid")
+    if verdict.accepted:
+        return "seats"
+    return "seats_without_margin" if verdict.prediction.seated else "will_not_seat"
 
 
 def simulate(

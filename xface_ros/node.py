@@ -25,6 +25,7 @@ from typing import Any
 
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+from diagnostic_msgs.srv import SelfTest
 from geometry_msgs.msg import PoseStamped
 from nav_msgs.msg import Path
 from nav_msgs.srv import GetPlan
@@ -48,16 +49,16 @@ from visualization_msgs.msg import MarkerArray
 
 from xface_ros.config import params_file_applied, params_file_paths
 from xface_ros.conversions import (
-    input_error_status,
     markers_msg,
     ns_to_stamp,
     path_msg,
     pose_input,
-    prediction_status,
     seated_pose_msg,
+    self_test_response,
     status_name,
+    verdict_status,
 )
-from xface_ros.decision import Rejected, Verdict, evaluate_query
+from xface_ros.decision import PoseInput, Rejected, Verdict, evaluate_query
 from xface_ros.diagnostics import diagnostic_array, predictor_status
 from xface_ros.params import (
     DESIGN_PARAMETERS,
@@ -74,6 +75,11 @@ from xface_ros.worker import LOG_THROTTLE_S, PredictionWorker
 __all__ = ["NODE_NAME", "XfacePredictor", "main"]
 
 NODE_NAME = "xface_predictor"
+
+#: A query for the latest streamed pose (an empty frame id, as in GetPlan's start).
+_LATEST = PoseInput(
+    frame_id="", stamp_ns=0, position=(0.0, 0.0, 0.0), orientation=(0.0, 0.0, 0.0, 1.0)
+)
 
 #: Results: reliable, a short queue (subscribers that fall behind lose old results, not new).
 RESULT_QOS = QoSProfile(
@@ -147,6 +153,14 @@ class XfacePredictor(Node):
             GetPlan,
             "predict",
             self._on_predict_request,
+            callback_group=MutuallyExclusiveCallbackGroup(),
+        )
+        # The planner's answer with its reason in one call: a common type (no interface package
+        # to build), the status of prediction/status plus "answer" (docs/ros.md says why).
+        self._status_service = self.create_service(
+            SelfTest,
+            "predict_status",
+            self._on_status_request,
             callback_group=MutuallyExclusiveCallbackGroup(),
         )
         self._diagnostics_timer = self.create_timer(
@@ -240,16 +254,13 @@ class XfacePredictor(Node):
 
     def _publish_verdict(self, verdict: Verdict, config: NodeConfig) -> None:
         """Publish a streamed pose's verdict with the config it was decided with."""
+        status = verdict_status(verdict, name=self._status_name, hardware_id=config.base_frame)
         if isinstance(verdict, Rejected):
-            self._status_pub.publish(
-                input_error_status(verdict, name=self._status_name, hardware_id=config.base_frame)
-            )
+            self._status_pub.publish(status)
             return
         header = Header(stamp=ns_to_stamp(verdict.stamp_ns), frame_id=config.base_frame)
         self._accepted_pub.publish(Bool(data=verdict.accepted))
-        self._status_pub.publish(
-            prediction_status(verdict, name=self._status_name, hardware_id=config.base_frame)
-        )
+        self._status_pub.publish(status)
         if verdict.seated_pose is not None:
             self._seated_pub.publish(seated_pose_msg(verdict.seated_pose, header))
         prediction = verdict.prediction
@@ -271,14 +282,7 @@ class XfacePredictor(Node):
         0 uses ``min_margin``. ``goal`` is ignored: the goal is the seat.
         """
         config = self.config
-        self._worker.stats.count_service_call()
-        verdict = evaluate_query(
-            pose_input(request.start),
-            self._worker.latest_pose,
-            config,
-            tolerance_m=float(request.tolerance),
-            now_ns=self._now_ns(),
-        )
+        verdict = self._query(pose_input(request.start), config, float(request.tolerance))
         if isinstance(verdict, Rejected):
             response.plan = Path(header=Header(frame_id=config.base_frame))
             self.get_logger().warning(
@@ -299,6 +303,31 @@ class XfacePredictor(Node):
             throttle_duration_sec=1.0,
         )
         return response
+
+    def _query(self, start: PoseInput, config: NodeConfig, tolerance_m: float) -> Verdict:
+        """A counted planner query: ``start`` (empty frame: the latest pose) against ``config``."""
+        self._worker.stats.count_service_call()
+        return evaluate_query(
+            start, self._worker.latest_pose, config, tolerance_m=tolerance_m, now_ns=self._now_ns()
+        )
+
+    def _on_status_request(
+        self, _request: SelfTest.Request, _response: SelfTest.Response
+    ) -> SelfTest.Response:
+        """SelfTest: the latest streamed pose's answer, reason and margins in one call.
+
+        The same question as GetPlan with an empty start (``min_margin`` required), answered
+        with the status of ``prediction/status`` plus ``answer`` (no_pose, stale, invalid,
+        will_not_seat, seats_without_margin, seats); ``passed`` is 1 when accepted.
+        """
+        config = self.config
+        verdict = self._query(_LATEST, config, 0.0)
+        return self_test_response(
+            verdict,
+            node_fqn=self.get_fully_qualified_name(),
+            name=self._status_name,
+            hardware_id=config.base_frame,
+        )
 
     # --- diagnostics -------------------------------------------------------------------------
 

@@ -24,6 +24,7 @@ import pytest
 import rclpy
 import yaml
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+from diagnostic_msgs.srv import SelfTest
 from geometry_msgs.msg import PoseStamped
 from nav_msgs.msg import Path as PathMsg
 from nav_msgs.srv import GetPlan
@@ -219,6 +220,7 @@ class RosClient:
         self.markers: Inbox[MarkerArray] | None = None
         self.diagnostics: Inbox[DiagnosticArray] = self._inbox(DiagnosticArray, "/diagnostics", 10)
         self.plan_client = self.node.create_client(GetPlan, "predict")
+        self.status_client = self.node.create_client(SelfTest, "predict_status")
         self.param_client = AsyncParameterClient(self.node, node_fqn)
         self._stamp_ns = 0
         self._thread = threading.Thread(target=self._spin, daemon=True)
@@ -329,6 +331,11 @@ class RosClient:
         request = GetPlan.Request(start=start, tolerance=tolerance)
         future = self.plan_client.call_async(request)
         return _result(future, timeout_s).plan
+
+    def call_status(self, timeout_s: float = REPLY_TIMEOUT_S) -> Any:
+        """``predict_status`` (SelfTest): the latest pose's answer in one call."""
+        assert self.status_client.wait_for_service(timeout_sec=timeout_s)
+        return _result(self.status_client.call_async(SelfTest.Request()), timeout_s)
 
     def set_parameters(self, **values: Any) -> list[Any]:
         """SetParameters on the node; the list of SetParametersResult (one per parameter)."""

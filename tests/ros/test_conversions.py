@@ -34,6 +34,7 @@ from xface_ros.conversions import (
     pose_input,
     prediction_status,
     seated_pose_msg,
+    self_test_response,
     stamp_to_ns,
 )
 from xface_ros.decision import (
@@ -98,6 +99,15 @@ def test_each_input_error_gives_an_error_status(code: str) -> None:
     assert status.message == f"INVALID_INPUT: {code}: why"
 
 
+def test_status_answer_says_passed_and_why(seated_verdict: Predicted) -> None:
+    response = self_test_response(
+        seated_verdict, node_fqn="/xface_predictor", name=NAME, hardware_id="xface_base"
+    )
+    assert response.passed == b"\x01"
+    assert values(response.status[0])["answer"] == "seats"
+    assert response.status[0].message.startswith("SEATED: ")
+
+
 def test_key_values_parse_back_exactly() -> None:
     assert key_value("a", 0.1 + 0.2).value == repr(0.1 + 0.2)
     assert key_value("a", True).value == "true"
@@ -122,6 +132,11 @@ def seated(config: NodeConfig) -> Prediction:
     prediction = predict(config.design, 0.015, 0.2, y_start=0.15, path=True)
     assert prediction.outcome is Outcome.SEATED
     return prediction
+
+
+@pytest.fixture(scope="module")
+def seated_verdict(seated: Prediction) -> Predicted:
+    return predicted(seated)
 
 
 def test_status_levels_follow_the_decision(seated: Prediction) -> None:

@@ -32,6 +32,7 @@ from xface_core.predict import predict
 from xface_core.result import Counters, Margins, Prediction
 from xface_ros.config import SPECS, NodeConfig, config_from_values
 from xface_ros.decision import (
+    ANSWERS,
     INPUT_ERRORS,
     InputRejected,
     PoseInput,
@@ -40,6 +41,7 @@ from xface_ros.decision import (
     Rejected,
     StatsCounts,
     StatsWindow,
+    answer,
     check_pose,
     combined_margin,
     decide,
@@ -295,6 +297,30 @@ def test_query_tolerance_is_the_required_combined_margin(config: NodeConfig) -> 
     double = evaluate_query(start, None, config, tolerance_m=2.0 * margin, now_ns=NOW_NS)
     assert half.accepted
     assert not double.accepted
+
+
+def query_answer(config: NodeConfig, latest: PoseInput | None, *, required_m: float) -> str:
+    """The answer to "the latest pose, with this margin required"."""
+    empty = pose(frame="")
+    return answer(evaluate_query(empty, latest, config, tolerance_m=required_m, now_ns=NOW_NS))
+
+
+@pytest.mark.parametrize(
+    ("expected", "latest", "required_m"),
+    [
+        ("no_pose", None, 0.0),
+        ("stale", at_start(0.0, 0.0, stamp_ns=NOW_NS - 2_000_000_000), 0.0),
+        ("invalid", pose(quaternion=(0.0, 0.0, 0.0, 1.0)), 0.0),
+        ("will_not_seat", at_start(0.9, 0.8), 0.0),
+        ("seats_without_margin", at_start(0.0, 0.0), 1.0),  # no seat has 1 m of margin
+        ("seats", at_start(0.0, 0.0), 0.0),
+    ],
+)
+def test_each_answer_of_a_query(
+    config: NodeConfig, expected: str, latest: PoseInput | None, required_m: float
+) -> None:
+    assert expected in ANSWERS
+    assert query_answer(config, latest, required_m=required_m) == expected
 
 
 # --- stats ----------------------------------------------------------------------------------
