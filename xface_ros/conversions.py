@@ -9,6 +9,7 @@ pivot frame (``base_frame``), as it was at the start of the prediction; lengths 
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable
 
 import numpy as np
@@ -244,9 +245,18 @@ def path_msg(prediction: Prediction, header: Header, *, max_poses: int) -> Path:
     return msg
 
 
-def seated_pose_msg(seat: PlanarPose, header: Header) -> PoseStamped:
+def seated_pose_msg(seat: PlanarPose | None, header: Header) -> PoseStamped:
     """The pose the moving pivot frame seats at (:attr:`Predicted.seated_pose
-    <xface_ros.decision.Predicted.seated_pose>`) as a ``geometry_msgs/PoseStamped``."""
+    <xface_ros.decision.Predicted.seated_pose>`) as a ``geometry_msgs/PoseStamped``.
+
+    ``None`` (no seat: it will not seat, or the input was rejected) gives an empty
+    ``frame_id`` and a NaN position with the same stamp: the latched topic then says "no seat
+    for this input" instead of keeping an earlier seat, and a consumer that ignores the frame
+    gets NaN, not a plausible pose.
+    """
+    if seat is None:
+        no_seat = Pose(position=Point(x=math.nan, y=math.nan, z=math.nan))
+        return PoseStamped(header=Header(stamp=header.stamp, frame_id=""), pose=no_seat)
     return PoseStamped(header=header, pose=planar_to_pose(seat))
 
 

@@ -21,6 +21,7 @@ import math
 import threading
 import time
 from dataclasses import dataclass, field, replace
+from typing import ClassVar
 
 from xface_core.errors import XfaceError
 from xface_core.frames import (
@@ -244,6 +245,8 @@ class Rejected:
     detail: str
 
     accepted = False
+    seated_pose: ClassVar[PlanarPose | None] = None
+    """A rejected pose has no seat (as :attr:`Predicted.seated_pose` when it does not seat)."""
 
 
 @dataclass(frozen=True)

@@ -254,15 +254,16 @@ class XfacePredictor(Node):
 
     def _publish_verdict(self, verdict: Verdict, config: NodeConfig) -> None:
         """Publish a streamed pose's verdict with the config it was decided with."""
-        status = verdict_status(verdict, name=self._status_name, hardware_id=config.base_frame)
-        if isinstance(verdict, Rejected):
-            self._status_pub.publish(status)
-            return
         header = Header(stamp=ns_to_stamp(verdict.stamp_ns), frame_id=config.base_frame)
-        self._accepted_pub.publish(Bool(data=verdict.accepted))
-        self._status_pub.publish(status)
-        if verdict.seated_pose is not None:
-            self._seated_pub.publish(seated_pose_msg(verdict.seated_pose, header))
+        if not isinstance(verdict, Rejected):
+            self._accepted_pub.publish(Bool(data=verdict.accepted))
+        self._status_pub.publish(
+            verdict_status(verdict, name=self._status_name, hardware_id=config.base_frame)
+        )
+        # Every verdict replaces the latched seat: a seat never outlives a later failure.
+        self._seated_pub.publish(seated_pose_msg(verdict.seated_pose, header))
+        if isinstance(verdict, Rejected):
+            return
         prediction = verdict.prediction
         if prediction.path is not None and self._path_pub.get_subscription_count() > 0:
             self._path_pub.publish(path_msg(prediction, header, max_poses=config.max_path_poses))

@@ -108,6 +108,14 @@ def test_status_answer_says_passed_and_why(seated_verdict: Predicted) -> None:
     assert response.status[0].message.startswith("SEATED: ")
 
 
+def test_no_seat_is_stated_with_an_empty_frame_and_nan() -> None:
+    msg = seated_pose_msg(None, Header(stamp=ns_to_stamp(NOW_NS), frame_id="xface_base"))
+    assert msg.header.frame_id == ""
+    assert stamp_to_ns(msg.header.stamp) == NOW_NS
+    assert math.isnan(msg.pose.position.x)
+    assert math.isnan(msg.pose.position.y)
+
+
 def test_key_values_parse_back_exactly() -> None:
     assert key_value("a", 0.1 + 0.2).value == repr(0.1 + 0.2)
     assert key_value("a", True).value == "true"

@@ -125,6 +125,19 @@ def test_streamed_prediction_equals_the_core(
     assert {b.data for b in new_bools} == {expected.seated}
 
 
+def test_seated_pose_is_replaced_by_a_later_failure(shared_node: Any) -> None:
+    c = shared_node.client
+    seats, _ = stream_pose(shared_node, 0.0, 0.0)
+    seat = c.seated.wait_for(lambda p: c.stamp_ns(p.header.stamp) == c.stamp_ns(seats.header.stamp))
+    assert seat.header.frame_id == "xface_base"
+    fails, _ = stream_pose(shared_node, 2.5, 0.0)  # out of reach
+    no_seat = c.seated.wait_for(
+        lambda p: c.stamp_ns(p.header.stamp) == c.stamp_ns(fails.header.stamp)
+    )
+    assert no_seat.header.frame_id == ""
+    assert math.isnan(no_seat.pose.position.x)
+
+
 def test_markers_show_the_prediction_when_subscribed(shared_node: Any) -> None:
     c = shared_node.client
     markers = c.subscribe_markers()
