@@ -393,15 +393,39 @@ def main(args: list[str] | None = None) -> int:
     except (ConfigError, ParameterException) as exc:  # out of range, wrong type, inconsistent
         print(f"{NODE_NAME}: refusing to start: {exc}", file=sys.stderr, flush=True)
         code = 2
-    except Exception:
-        # A signal's handler shuts the context down while spin runs; spin may then fail
-        # inside rcl ("failed to initialize wait set: the given context is not valid")
-        # instead of returning. Once the context is down that is the shutdown itself.
-        if rclpy.ok():
-            raise
+    except Exception as exc:
+        _shutdown_race(exc)
     finally:
+        _finish(node, executor)
+    return code
+
+
+def _shutdown_race(exc: Exception) -> None:
+    """Re-raise ``exc`` unless the context is already down.
+
+    A signal's handler shuts the context down from its own thread while the executor runs; a
+    spin that was then building its wait set, taking a message or publishing fails inside rcl
+    ("failed to initialize wait set: the given context is not valid", a RuntimeError in
+    take_message) instead of returning. Once the context is down, that is the shutdown itself.
+    """
+    if rclpy.ok():
+        raise exc
+    print(f"{NODE_NAME}: shutting down ({type(exc).__name__} at shutdown)", file=sys.stderr)
+
+
+def _finish(node: XfacePredictor | None, executor: SingleThreadedExecutor) -> None:
+    """Stop the worker, finish the recording, release the node, the executor and the context.
+
+    The recording comes first and on its own (``close`` never raises): whatever fails after it
+    while the context is going down must not turn a clean shutdown into exit code 1.
+    """
+    if node is not None:
+        node.close()
+    try:
         if node is not None:
             node.destroy_node()
         executor.shutdown()
+    except Exception as exc:
+        _shutdown_race(exc)
+    finally:
         rclpy.try_shutdown()
-    return code
