@@ -33,6 +33,7 @@ __all__ = [
     "ParamValue",
     "config_from_values",
     "default_record_path",
+    "normalise_frame_id",
     "params_file_applied",
     "params_file_paths",
 ]
@@ -100,8 +101,8 @@ SPECS: tuple[ParamSpec, ...] = (
         "base_frame",
         "xface_base",
         "Frame id of the base part's pivot frame (+y out of the base face); input poses must "
-        "carry it and every output is expressed in it.",
-        constraints="non-empty, no whitespace, no leading '/'",
+        "carry it and every output is expressed in it. A leading '/' is dropped, as tf2 does.",
+        constraints="non-empty, no whitespace",
     ),
     ParamSpec(
         "input_timeout_s",
@@ -267,12 +268,20 @@ def _face_letter(value: Any) -> str:
     return face
 
 
+def normalise_frame_id(frame_id: str) -> str:
+    """A frame id as tf2 compares it: without leading slashes (``/xface_base`` is
+    ``xface_base``; tf2 frame ids carry no slash, ROS 1 style ids did).
+
+    >>> normalise_frame_id("/xface_base")
+    'xface_base'
+    """
+    return frame_id.lstrip("/")
+
+
 def _base_frame(value: Any) -> str:
-    frame = str(value)
-    if not frame or frame.startswith("/") or any(c.isspace() for c in frame):
-        raise ConfigError(
-            f"base_frame must be non-empty, without whitespace or a leading '/'; got {frame!r}"
-        )
+    frame = normalise_frame_id(str(value))
+    if not frame or any(c.isspace() for c in frame):
+        raise ConfigError(f"base_frame must be non-empty and without whitespace; got {value!r}")
     return frame
 
 

@@ -241,7 +241,7 @@ class XfacePredictor(Node):
         self._worker.submit(pose_input(msg), receive_ns=self._now_ns())
 
     def _on_message_lost(self, info: QoSMessageLostInfo) -> None:
-        self._worker.stats.set_dds_lost_total(info.total_count)
+        self._worker.stats.set_dds_lost_reported_total(info.total_count)
 
     # --- output of the worker (runs on the worker thread) -----------------------------------
 

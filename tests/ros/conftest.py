@@ -386,6 +386,10 @@ class Running:
     domain_id: int
     params_file: Path
 
+    def env(self) -> dict[str, str]:
+        """The environment of a process that talks to this node (same domain, loopback)."""
+        return ros_env(self.domain_id)
+
 
 @pytest.fixture
 def launch(ros_domain_id: int, tmp_path: Path) -> Iterator[Callable[..., Running]]:

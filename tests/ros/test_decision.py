@@ -124,6 +124,25 @@ def test_each_bad_input_is_rejected_with_its_code(
     assert not verdict.accepted
 
 
+def test_a_leading_slash_names_the_same_frame(config: NodeConfig) -> None:
+    assert check_pose(pose(frame="/xface_base"), config, now_ns=NOW_NS).x0 == 0.01
+
+
+def test_a_zero_stamp_is_called_a_zero_stamp(config: NodeConfig) -> None:
+    with pytest.raises(InputRejected, match="stale_stamp: zero stamp"):
+        check_pose(pose(stamp_ns=0), config, now_ns=NOW_NS)
+
+
+def test_an_old_stamp_suggests_clock_skew(config: NodeConfig) -> None:
+    with pytest.raises(InputRejected, match=r"stale_stamp: pose is 2\.000 s old.*clock skew"):
+        check_pose(pose(stamp_ns=NOW_NS - 2_000_000_000), config, now_ns=NOW_NS)
+
+
+def test_a_future_stamp_is_called_clock_skew(config: NodeConfig) -> None:
+    with pytest.raises(InputRejected, match=r"future_stamp: clock skew: the stamp is 2\.000 s"):
+        check_pose(pose(stamp_ns=NOW_NS + 2_000_000_000), config, now_ns=NOW_NS)
+
+
 def test_checks_run_in_the_documented_order(config: NodeConfig) -> None:
     # Wrong frame before non-finite before stale before the quaternion.
     everything_wrong = pose(math.nan, frame="map", stamp_ns=0, quaternion=(0.0, 0.0, 0.0, 0.0))
@@ -189,8 +208,15 @@ def test_query_tolerance_replaces_min_margin_only_when_positive(config: NodeConf
     strict = replace(config, min_margin=0.003)
     assert required_margin_m(0.002, strict) == 0.002
     assert required_margin_m(0.0, strict) == 0.003
-    assert required_margin_m(math.nan, strict) == 0.003
-    assert required_margin_m(-1.0, config) == 0.0
+
+
+@pytest.mark.parametrize("tolerance_m", [-0.001, math.nan, math.inf])
+def test_query_with_a_bad_tolerance_is_rejected(config: NodeConfig, tolerance_m: float) -> None:
+    start = at_start(0.0, 0.0)
+    verdict = evaluate_query(start, None, config, tolerance_m=tolerance_m, now_ns=NOW_NS)
+    assert isinstance(verdict, Rejected)
+    assert verdict.code == "bad_tolerance"
+    assert repr(tolerance_m) in verdict.detail
 
 
 # --- verdicts -------------------------------------------------------------------------------
@@ -338,7 +364,7 @@ def test_stats_count_predictions_errors_and_windows(config: NodeConfig) -> None:
     stats.count_verdict(Rejected(NOW_NS + 1, "non_planar", "tilted"), latency_ms=1.0)
     stats.count_service_call()
     stats.count_recording_error()
-    stats.set_dds_lost_total(3)
+    stats.set_dds_lost_reported_total(3)
     snap = stats.take_snapshot(2_000_000_000, received_total=2, dropped_total=0)
     assert snap.window == StatsWindow(
         received=2, predicted=1, latency_ms=[2.0], compute_ms=[seated.compute_s * 1e3]
@@ -348,7 +374,7 @@ def test_stats_count_predictions_errors_and_windows(config: NodeConfig) -> None:
     # The last verdict was the rejection: it sets the last outcome and error; the latency
     # is that of the last prediction.
     assert snap.counts == StatsCounts(
-        warming_up=False, predicted_total=1, input_errors_total=1, dds_lost_total=3,
+        warming_up=False, predicted_total=1, input_errors_total=1, dds_lost_reported_total=3,
         service_calls_total=1, recording_errors_total=1, last_outcome="INVALID_INPUT",
         last_accepted=None, last_input_error="non_planar", last_latency_ms=2.0,
         last_stamp_ns=NOW_NS + 1,

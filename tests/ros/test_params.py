@@ -82,7 +82,7 @@ def test_defaults_build_the_x_face_in_metres() -> None:
         ("input_timeout_s", -0.1, "input_timeout_s"),
         ("max_path_poses", 1, "max_path_poses"),
         ("base_frame", "", "base_frame"),
-        ("base_frame", "/xface_base", "base_frame"),
+        ("base_frame", "/", "base_frame"),
         ("base_frame", "two words", "base_frame"),
         ("width_m", "wide", "width_m must be a float"),
         ("record", 1, "record must be a bool"),
@@ -102,6 +102,12 @@ def test_negative_friction_is_refused_with_the_cores_reason() -> None:
 
 def test_friction_is_passed_to_the_simulator() -> None:
     assert config_from_values({**defaults(), "friction": 0.3}).friction == 0.3
+
+
+def test_base_frame_loses_its_leading_slash() -> None:
+    assert (
+        config_from_values({**defaults(), "base_frame": "/xface_base"}).base_frame == "xface_base"
+    )
 
 
 def test_face_letter_is_case_insensitive() -> None:
