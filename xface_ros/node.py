@@ -18,9 +18,11 @@ documented in docs/ros.md.
 
 from __future__ import annotations
 
+import argparse
 import sys
 import threading
-from collections.abc import Sequence
+import time
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import rclpy
@@ -34,6 +36,7 @@ from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
 from rclpy.event_handler import QoSMessageLostInfo, SubscriptionEventCallbacks
 from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.lifecycle import LifecycleNodeMixin, LifecycleState, TransitionCallbackReturn
 from rclpy.node import Node
 from rclpy.parameter import Parameter, parameter_dict_from_yaml_file
 from rclpy.qos import (
@@ -44,9 +47,11 @@ from rclpy.qos import (
     qos_profile_sensor_data,
 )
 from rclpy.signals import SignalHandlerOptions
+from rclpy.utilities import remove_ros_args
 from std_msgs.msg import Bool, Header
 from visualization_msgs.msg import MarkerArray
 
+from xface_ros import worker as worker_module
 from xface_ros.config import params_file_applied, params_file_paths
 from xface_ros.conversions import (
     markers_msg,
@@ -72,7 +77,7 @@ from xface_ros.params import (
 from xface_ros.recorder import Recorder
 from xface_ros.worker import LOG_THROTTLE_S, PredictionWorker
 
-__all__ = ["NODE_NAME", "XfacePredictor", "main"]
+__all__ = ["NODE_NAME", "XfaceLifecyclePredictor", "XfacePredictor", "main"]
 
 NODE_NAME = "xface_predictor"
 
@@ -104,11 +109,14 @@ BULK_QOS = QoSProfile(
 )
 
 
-class XfacePredictor(Node):
-    """Predicts docking acceptance for a stream of relative poses and for planner queries.
+class _Predictor(Node):
+    """The wiring both node kinds share: parameters, outputs, inputs and their callbacks.
 
-    Callback groups keep the subscription, the service and the timer apart, so the node
-    also works under a multi-threaded executor.
+    Outputs (publishers, the recording, the worker) and inputs (the pose subscription, the
+    services, the diagnostics timer) are made and released by separate methods, so the plain
+    node can make everything at once and the managed node in its transitions. Callback groups
+    keep the subscription, the services and the timer apart, so the node also works under a
+    multi-threaded executor.
     """
 
     def __init__(self, *, params_files: Sequence[str] = (), **node_kwargs: Any) -> None:
@@ -122,15 +130,35 @@ class XfacePredictor(Node):
         self._config_lock = threading.Lock()
         self.add_on_set_parameters_callback(self._validate_parameters)
         self.add_post_set_parameters_callback(self._apply_parameters)
+        self._publishers_made: list[Any] = []
+        self._inputs: list[tuple[Any, Any]] = []  # (entity, its destroy method)
+        self._recorder: Recorder | None = None
+        self._worker: PredictionWorker | None = None
 
-        self._accepted_pub = self.create_publisher(Bool, "prediction/accepted", RESULT_QOS)
-        self._status_pub = self.create_publisher(DiagnosticStatus, "prediction/status", RESULT_QOS)
-        self._path_pub = self.create_publisher(Path, "prediction/path", BULK_QOS)
-        self._seated_pub = self.create_publisher(PoseStamped, "prediction/seated_pose", LATCHED_QOS)
-        self._markers_pub = self.create_publisher(MarkerArray, "prediction/markers", BULK_QOS)
-        self._diagnostics_pub = self.create_publisher(DiagnosticArray, "/diagnostics", RESULT_QOS)
+    @property
+    def _running_worker(self) -> PredictionWorker:
+        """The worker: inputs exist only while it does (between making and releasing outputs)."""
+        if self._worker is None:
+            raise RuntimeError("the predictor's outputs are released")
+        return self._worker
 
-        self._recorder = Recorder.open(self._config, self.get_logger())
+    # --- making and releasing the interfaces ------------------------------------------------
+
+    def _publisher(self, msg_type: Any, topic: str, qos: QoSProfile) -> Any:
+        """A publisher (the managed node makes lifecycle publishers)."""
+        publisher = self.create_publisher(msg_type, topic, qos)
+        self._publishers_made.append(publisher)
+        return publisher
+
+    def _make_outputs(self, *, warm_up: Callable[[NodeConfig], None] | None = None) -> None:
+        """Publishers, the recording and the worker (not started); ``warm_up`` as the worker's."""
+        self._accepted_pub = self._publisher(Bool, "prediction/accepted", RESULT_QOS)
+        self._status_pub = self._publisher(DiagnosticStatus, "prediction/status", RESULT_QOS)
+        self._path_pub = self._publisher(Path, "prediction/path", BULK_QOS)
+        self._seated_pub = self._publisher(PoseStamped, "prediction/seated_pose", LATCHED_QOS)
+        self._markers_pub = self._publisher(MarkerArray, "prediction/markers", BULK_QOS)
+        self._diagnostics_pub = self._publisher(DiagnosticArray, "/diagnostics", RESULT_QOS)
+        self._recorder = Recorder.open(self.config, self.get_logger())
         self._worker = PredictionWorker(
             config=lambda: self.config,
             now_ns=self._now_ns,
@@ -139,9 +167,12 @@ class XfacePredictor(Node):
             logger=self.get_logger(),
             recorder=self._recorder,
             shutting_down=lambda: not self.context.ok(),
+            warm_up=warm_up,
         )
 
-        self._pose_sub = self.create_subscription(
+    def _make_inputs(self) -> None:
+        """The pose subscription, the two services and the diagnostics timer."""
+        pose_sub = self.create_subscription(
             PoseStamped,
             "relative_pose",
             self._on_pose,
@@ -149,7 +180,7 @@ class XfacePredictor(Node):
             callback_group=MutuallyExclusiveCallbackGroup(),
             event_callbacks=SubscriptionEventCallbacks(message_lost=self._on_message_lost),
         )
-        self._service = self.create_service(
+        plan_service = self.create_service(
             GetPlan,
             "predict",
             self._on_predict_request,
@@ -157,24 +188,39 @@ class XfacePredictor(Node):
         )
         # The planner's answer with its reason in one call: a common type (no interface package
         # to build), the status of prediction/status plus "answer" (docs/ros.md says why).
-        self._status_service = self.create_service(
+        status_service = self.create_service(
             SelfTest,
             "predict_status",
             self._on_status_request,
             callback_group=MutuallyExclusiveCallbackGroup(),
         )
-        self._diagnostics_timer = self.create_timer(
-            self._config.diagnostics_period_s,
+        timer = self.create_timer(
+            self.config.diagnostics_period_s,
             self._publish_diagnostics,
             callback_group=MutuallyExclusiveCallbackGroup(),
         )
-        # Last: the worker warms the simulator up on its own thread (seconds on a fresh
-        # checkout, which compiles it) while every interface above already exists.
-        self._worker.start()
+        self._inputs = [
+            (pose_sub, self.destroy_subscription),
+            (plan_service, self.destroy_service),
+            (status_service, self.destroy_service),
+            (timer, self.destroy_timer),
+        ]
         self.get_logger().info(
-            f"predicting for the {self._describe(self._config)}; poses on "
-            f"{self._pose_sub.topic_name} in frame {self._config.base_frame!r}"
+            f"predicting for the {self._describe(self.config)}; poses on "
+            f"{pose_sub.topic_name} in frame {self.config.base_frame!r}"
         )
+
+    def _release_inputs(self) -> None:
+        inputs, self._inputs = self._inputs, []
+        for entity, destroy in inputs:
+            destroy(entity)
+
+    def _release_outputs(self) -> None:
+        """Stop the worker, finish the recording, then release the publishers."""
+        self.close()
+        publishers, self._publishers_made = self._publishers_made, []
+        for publisher in publishers:
+            self.destroy_publisher(publisher)
 
     # --- parameters -------------------------------------------------------------------------
 
@@ -238,10 +284,10 @@ class XfacePredictor(Node):
         return int(self.get_clock().now().nanoseconds)
 
     def _on_pose(self, msg: PoseStamped) -> None:
-        self._worker.submit(pose_input(msg), receive_ns=self._now_ns())
+        self._running_worker.submit(pose_input(msg), receive_ns=self._now_ns())
 
     def _on_message_lost(self, info: QoSMessageLostInfo) -> None:
-        self._worker.stats.set_dds_lost_reported_total(info.total_count)
+        self._running_worker.stats.set_dds_lost_reported_total(info.total_count)
 
     # --- output of the worker (runs on the worker thread) -----------------------------------
 
@@ -307,9 +353,13 @@ class XfacePredictor(Node):
 
     def _query(self, start: PoseInput, config: NodeConfig, tolerance_m: float) -> Verdict:
         """A counted planner query: ``start`` (empty frame: the latest pose) against ``config``."""
-        self._worker.stats.count_service_call()
+        self._running_worker.stats.count_service_call()
         return evaluate_query(
-            start, self._worker.latest_pose, config, tolerance_m=tolerance_m, now_ns=self._now_ns()
+            start,
+            self._running_worker.latest_pose,
+            config,
+            tolerance_m=tolerance_m,
+            now_ns=self._now_ns(),
         )
 
     def _on_status_request(
@@ -333,7 +383,7 @@ class XfacePredictor(Node):
     # --- diagnostics -------------------------------------------------------------------------
 
     def _publish_diagnostics(self) -> None:
-        snapshot = self._worker.take_stats(self._now_ns())
+        snapshot = self._running_worker.take_stats(self._now_ns())
         status = predictor_status(
             snapshot,
             self.config,
@@ -347,7 +397,9 @@ class XfacePredictor(Node):
 
     def close(self) -> None:
         """Stop the worker and finish the recording (idempotent)."""
-        self._worker.stop(timeout_s=30.0)
+        worker, self._worker = self._worker, None
+        if worker is not None:
+            worker.stop(timeout_s=30.0)
         recorder, self._recorder = self._recorder, None
         if recorder is None:
             return
@@ -371,21 +423,105 @@ class XfacePredictor(Node):
         super().destroy_node()
 
 
+class XfacePredictor(_Predictor):
+    """The plain node: every interface exists from construction until the node is destroyed.
+
+    The constructor does not simulate: the worker warms the simulator up on its own thread
+    (seconds on a fresh checkout, which compiles it) while every interface already exists.
+    """
+
+    def __init__(self, *, params_files: Sequence[str] = (), **node_kwargs: Any) -> None:
+        super().__init__(params_files=params_files, **node_kwargs)
+        self._make_outputs()
+        self._make_inputs()
+        self._running_worker.start()
+
+
+class XfaceLifecyclePredictor(LifecycleNodeMixin, _Predictor):
+    """The managed node (``--lifecycle``), driven by ``<node>/change_state``.
+
+    * constructed (unconfigured): parameters only;
+    * ``configure``: publishers (lifecycle publishers, silent until active), the recording, and
+      the warm-up, in the transition itself (it returns once the simulator is loaded);
+    * ``activate``: the pose subscription, both services and the diagnostics timer;
+    * ``deactivate``: those released again (no answers, no predictions);
+    * ``cleanup`` / ``shutdown``: the worker stopped, the recording finished, all released.
+    """
+
+    def __init__(self, *, params_files: Sequence[str] = (), **node_kwargs: Any) -> None:
+        _Predictor.__init__(self, params_files=params_files, **node_kwargs)
+        LifecycleNodeMixin.__init__(self, enable_communication_interface=True)
+
+    def _publisher(self, msg_type: Any, topic: str, qos: QoSProfile) -> Any:
+        publisher = self.create_lifecycle_publisher(msg_type, topic, qos)
+        self._publishers_made.append(publisher)
+        return publisher
+
+    def destroy_publisher(self, publisher: Any) -> bool:
+        return bool(self.destroy_lifecycle_publisher(publisher))
+
+    def on_configure(self, state: LifecycleState) -> TransitionCallbackReturn:
+        t0 = time.perf_counter()
+        try:
+            # Looked up at call time, so a test can hold the warm-up back as for the plain node.
+            worker_module.warm_up_simulator(self.config)
+        except Exception as exc:
+            self.get_logger().error(f"configure failed: the warm-up prediction raised {exc!r}")
+            return TransitionCallbackReturn.FAILURE
+        self._make_outputs(warm_up=lambda _config: None)  # warmed up already
+        self._running_worker.start()
+        self.get_logger().info(f"configured: simulator loaded in {time.perf_counter() - t0:.1f} s")
+        return super().on_configure(state)
+
+    def on_activate(self, state: LifecycleState) -> TransitionCallbackReturn:
+        self._make_inputs()
+        return super().on_activate(state)  # enables the lifecycle publishers
+
+    def on_deactivate(self, state: LifecycleState) -> TransitionCallbackReturn:
+        self._release_inputs()
+        return super().on_deactivate(state)
+
+    def on_cleanup(self, state: LifecycleState) -> TransitionCallbackReturn:
+        self._release_outputs()
+        return super().on_cleanup(state)
+
+    def on_shutdown(self, state: LifecycleState) -> TransitionCallbackReturn:
+        self._release_inputs()
+        self._release_outputs()
+        return super().on_shutdown(state)
+
+
+def _parse_options(argv: Sequence[str]) -> argparse.Namespace:
+    """The node's own options (outside ``--ros-args``); argv[0] is the program."""
+    parser = argparse.ArgumentParser(
+        prog="xface-predictor", description="Run the xface_predictor ROS 2 node."
+    )
+    parser.add_argument(
+        "--lifecycle",
+        action="store_true",
+        help="start as a managed (lifecycle) node, driven by <node>/change_state",
+    )
+    return parser.parse_args(remove_ros_args(list(argv))[1:])
+
+
 def main(args: list[str] | None = None) -> int:
     """Run the node until SIGINT or SIGTERM; 0 on a clean shutdown, 2 on a bad configuration.
 
     rclpy's own handlers catch both signals (``SignalHandlerOptions.ALL``): they shut the
     context down, ``spin`` returns, and the ``finally`` block finishes the recording.
     """
-    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.ALL)
-    node: XfacePredictor | None = None
+    argv = sys.argv if args is None else args
+    options = _parse_options(argv)  # exits 2 with usage on an unknown option
+    rclpy.init(args=argv, signal_handler_options=SignalHandlerOptions.ALL)
+    node: _Predictor | None = None
     # One executor thread: rclpy's SingleThreadedExecutor takes a 1 kHz pose stream with far
     # fewer losses than its MultiThreadedExecutor (scripts/ros_stress.py, docs/ros.md); the
     # simulation runs in the worker thread, so callbacks stay short.
     executor = SingleThreadedExecutor()
     code = 0
     try:
-        node = XfacePredictor(params_files=params_file_paths(sys.argv if args is None else args))
+        kind = XfaceLifecyclePredictor if options.lifecycle else XfacePredictor
+        node = kind(params_files=params_file_paths(argv))
         executor.add_node(node)
         executor.spin()
     except (KeyboardInterrupt, ExternalShutdownException):
@@ -413,7 +549,7 @@ def _shutdown_race(exc: Exception) -> None:
     print(f"{NODE_NAME}: shutting down ({type(exc).__name__} at shutdown)", file=sys.stderr)
 
 
-def _finish(node: XfacePredictor | None, executor: SingleThreadedExecutor) -> None:
+def _finish(node: _Predictor | None, executor: SingleThreadedExecutor) -> None:
     """Stop the worker, finish the recording, release the node, the executor and the context.
 
     The recording comes first and on its own (``close`` never raises): whatever fails after it

@@ -125,11 +125,17 @@ class NodeProcess:
 
 
 def start_node_process(
-    domain_id: int, params_file: Path, log_path: Path, extra_args: list[str] | None = None
+    domain_id: int,
+    params_file: Path,
+    log_path: Path,
+    extra_args: list[str] | None = None,
+    node_args: list[str] | None = None,
 ) -> NodeProcess:
+    """``extra_args`` go after ``--ros-args``; ``node_args`` (the node's own options, such as
+    ``--lifecycle``) before it."""
     command = [
-        sys.executable, "-m", "xface_ros", "--ros-args", "--params-file", str(params_file),
-        *(extra_args or []),
+        sys.executable, "-m", "xface_ros", *(node_args or []), "--ros-args",
+        "--params-file", str(params_file), *(extra_args or []),
     ]  # fmt: skip
     log = log_path.open("w", encoding="utf-8")
     process = subprocess.Popen(
@@ -334,8 +340,12 @@ class RosClient:
 
     def call_status(self, timeout_s: float = REPLY_TIMEOUT_S) -> Any:
         """``predict_status`` (SelfTest): the latest pose's answer in one call."""
-        assert self.status_client.wait_for_service(timeout_sec=timeout_s)
-        return _result(self.status_client.call_async(SelfTest.Request()), timeout_s)
+        return self.call(self.status_client, SelfTest.Request(), timeout_s)
+
+    def call(self, client: Any, request: Any, timeout_s: float = REPLY_TIMEOUT_S) -> Any:
+        """Wait for ``client``'s service, call it and return the response."""
+        assert client.wait_for_service(timeout_sec=timeout_s)
+        return _result(client.call_async(request), timeout_s)
 
     def set_parameters(self, **values: Any) -> list[Any]:
         """SetParameters on the node; the list of SetParametersResult (one per parameter)."""
@@ -405,13 +415,16 @@ def launch(ros_domain_id: int, tmp_path: Path) -> Iterator[Callable[..., Running
         *,
         wait: bool = True,
         extra_args: list[str] | None = None,
+        node_args: list[str] | None = None,
         node_fqn: str = NODE_FQN,
         params_key: str = "/**",
         **overrides: Any,
     ) -> Running:
         n = len(nodes)
         params = write_params(tmp_path / f"params{n}.yaml", key=params_key, **overrides)
-        node = start_node_process(ros_domain_id, params, tmp_path / f"node{n}.log", extra_args)
+        node = start_node_process(
+            ros_domain_id, params, tmp_path / f"node{n}.log", extra_args, node_args
+        )
         nodes.append(node)  # before anything else can fail: teardown always stops it
         client = RosClient(ros_domain_id, node_fqn=node_fqn)
         clients.append(client)
