@@ -389,8 +389,11 @@ def params_file_applied(
     True
     >>> params_file_applied({"width_m": 0.1}, {})
     False
+    >>> params_file_applied({"use_sim_time": True}, {"use_sim_time": True})
+    True
     """
+    # Any parameter counts, ours or rclpy's own (a file may set only use_sim_time).
     return any(
-        name in SPEC_BY_NAME and name in node_overrides and node_overrides[name] == value
+        name in node_overrides and node_overrides[name] == value
         for name, value in file_values.items()
     )

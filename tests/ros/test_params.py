@@ -12,6 +12,7 @@ from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.parameter import Parameter
 
 from xface_core.geometry import make_face
+from xface_ros.config import normalise_frame_id, params_file_applied, params_file_paths
 from xface_ros.params import (
     DESIGN_PARAMETERS,
     SPECS,
@@ -166,3 +167,21 @@ def test_docs_list_every_parameter_with_its_default() -> None:
         else:
             text = repr(default)
         assert f"`{text}`" in rows[spec.name], (spec.name, text)
+
+
+def test_params_files_are_read_from_the_ros_arguments_only() -> None:
+    argv = ["prog", "--params-file", "not_ros.yaml", "--ros-args", "-r", "__ns:=/left",
+            "--params-file", "a.yaml", "--", "--ros-args", "--params-file", "b.yaml"]  # fmt: skip
+    assert params_file_paths(argv) == ["a.yaml", "b.yaml"]
+
+
+def test_a_params_file_applies_when_one_of_its_values_reached_the_node() -> None:
+    assert params_file_applied({"width_m": 0.08, "face": "V"}, {"face": "V"})
+
+
+def test_a_params_file_keyed_for_another_node_applies_nothing() -> None:
+    assert not params_file_applied({"width_m": 0.08}, {})
+
+
+def test_frame_ids_compare_without_their_leading_slash() -> None:
+    assert normalise_frame_id("/xface_base") == normalise_frame_id("xface_base") == "xface_base"
