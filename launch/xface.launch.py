@@ -4,29 +4,38 @@
     ros2 launch xface xface.launch.py namespace:=left name:=dock_left lifecycle:=true
 
 ``params_file`` defaults to the installed config/xface.yaml, whose ``/**`` key applies under any
-namespace and name. The executable is the ``xface-predictor`` console script (on PATH in the
-sourced workspace). launch and launch_ros are not on PyPI: outside a ROS installation this
-file is only syntax-checked (tests/ros/test_packaging.py).
+namespace and name. With ``lifecycle:=true`` the node starts unconfigured and waits for a
+lifecycle manager (``<node>/change_state``). launch and launch_ros are not on PyPI: outside a
+ROS installation this file is only compiled (tests/ros/test_packaging.py).
 """
 
 import os
 
 from ament_index_python.packages import get_package_share_directory
 from launch import LaunchDescription
-from launch.actions import DeclareLaunchArgument, ExecuteProcess
+from launch.actions import DeclareLaunchArgument
 from launch.conditions import IfCondition, UnlessCondition
 from launch.substitutions import LaunchConfiguration
+from launch_ros.actions import Node
+
+
+def predictor(*, lifecycle: bool) -> Node:
+    """The node, plain or managed (``--lifecycle`` is the node's own option, not a ROS one)."""
+    flag = LaunchConfiguration("lifecycle")
+    return Node(
+        package="xface",
+        executable="xface-predictor",
+        name=LaunchConfiguration("name"),
+        namespace=LaunchConfiguration("namespace"),
+        parameters=[LaunchConfiguration("params_file")],
+        arguments=["--lifecycle"] if lifecycle else [],
+        output="screen",
+        condition=IfCondition(flag) if lifecycle else UnlessCondition(flag),
+    )
 
 
 def generate_launch_description() -> LaunchDescription:
     default_params = os.path.join(get_package_share_directory("xface"), "config", "xface.yaml")
-    namespace = LaunchConfiguration("namespace")
-    name = LaunchConfiguration("name")
-    params_file = LaunchConfiguration("params_file")
-    ros_args = [
-        "--ros-args", "-r", ["__ns:=/", namespace], "-r", ["__node:=", name],
-        "--params-file", params_file,
-    ]  # fmt: skip
     return LaunchDescription(
         [
             DeclareLaunchArgument("namespace", default_value="", description="node namespace"),
@@ -35,15 +44,7 @@ def generate_launch_description() -> LaunchDescription:
             DeclareLaunchArgument(
                 "lifecycle", default_value="false", description="start as a managed node"
             ),
-            ExecuteProcess(
-                cmd=["xface-predictor", *ros_args],
-                output="screen",
-                condition=UnlessCondition(LaunchConfiguration("lifecycle")),
-            ),
-            ExecuteProcess(
-                cmd=["xface-predictor", "--lifecycle", *ros_args],
-                output="screen",
-                condition=IfCondition(LaunchConfiguration("lifecycle")),
-            ),
+            predictor(lifecycle=False),
+            predictor(lifecycle=True),
         ]
     )

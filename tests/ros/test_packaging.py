@@ -78,7 +78,8 @@ def test_colcon_builds_the_repository(tmp_path: Path) -> None:
     )  # fmt: skip
     assert build.returncode == 0, build.stdout + build.stderr
     installed = tmp_path / "install" / "xface"
-    assert (installed / "bin" / "xface-predictor").exists()
+    # ros2 run and launch_ros look for executables in lib/<package>.
+    assert (installed / "lib" / "xface" / "xface-predictor").exists()
     share = installed / "share" / "xface"
     for name in ("package.xml", "config/xface.yaml", "launch/xface.launch.py"):
         assert (share / name).exists(), name
