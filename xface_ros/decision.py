@@ -392,7 +392,7 @@ def evaluate_query(
     An empty ``requested.frame_id`` means the latest streamed pose, subject to
     ``input_timeout_s`` against ``now_ns``; an explicit start is not checked for staleness
     (planners ask about hypothetical poses). ``tolerance_m`` > 0 is the required combined
-    margin; 0 uses ``min_margin``.
+    margin; 0 uses ``min_margin``; a negative or non-finite one is rejected (``bad_tolerance``).
     """
     if not (math.isfinite(tolerance_m) and tolerance_m >= 0.0):
         return Rejected(

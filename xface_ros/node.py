@@ -326,7 +326,8 @@ class _Predictor(Node):
         An empty ``start.header.frame_id`` means the latest streamed pose (subject to
         ``input_timeout_s``); an explicit start is not checked for staleness (planners ask
         about hypothetical poses). ``tolerance`` > 0 is the required combined margin (m);
-        0 uses ``min_margin``. ``goal`` is ignored: the goal is the seat.
+        0 uses ``min_margin``; a negative or non-finite one is refused (``bad_tolerance``).
+        ``goal`` is ignored: the goal is the seat.
         """
         config = self.config
         verdict = self._query(pose_input(request.start), config, float(request.tolerance))
