@@ -11,8 +11,10 @@ subscription, the ``predict`` service and the diagnostics timer, and hands work 
   the warm-up it waits for the simulator to load, then answers);
 * the timer formats the worker's stats with :mod:`xface_ros.diagnostics`.
 
-The constructor does not simulate: every interface exists before the (possibly long) warm-up.
-``main()`` owns init, spin and shutdown. The interface (topics, QoS, service, parameters) is
+The plain node's constructor does not simulate: every interface exists before the (possibly
+long) warm-up. With ``--lifecycle`` the managed node warms up in ``configure`` and opens its
+inputs in ``activate`` (docs/ros.md, "Lifecycle mode"). ``main()`` owns init, spin and
+shutdown. The interface (topics, QoS, service, parameters) is
 documented in docs/ros.md.
 """
 
