@@ -122,7 +122,7 @@ def run_stress(
 
     def on_diagnostics(array: DiagnosticArray) -> None:
         for status in array.status:
-            if status.name == "xface_predictor: predictor":
+            if status.name == "/xface_predictor: predictor":
                 with lock:
                     diagnostics.append({kv.key: kv.value for kv in status.values})
 
@@ -212,7 +212,7 @@ def run_stress(
             node_predicted=int(last_diag.get("predicted_total", "0")),
             node_dropped_newest_wins=int(last_diag.get("dropped_total", "0")),
             node_input_errors=int(last_diag.get("input_errors_total", "0")),
-            node_dds_lost_reported=int(last_diag.get("dds_lost_total", "0")),
+            node_dds_lost_reported=int(last_diag.get("dds_lost_reported_total", "0")),
             dds_lost=sent - received,
             statuses_received=len(lat),
             outcomes=outs,

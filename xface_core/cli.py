@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from .errors import XfaceError, XfaceValueError
+from .frames import NotFacingError, check_facing
 from .geometry import make_face
 from .grids import ThetaGridKind
 from .outcome import Outcome
@@ -134,6 +135,11 @@ def _prediction_json(pred: Any) -> dict[str, Any]:
 
 
 def _cmd_predict(args: argparse.Namespace) -> int:
+    try:
+        check_facing(args.theta0)
+    except NotFacingError as exc:  # the ROS node's not_facing input error, same reason
+        print(f"xface: {Outcome.INVALID_INPUT.name}: {exc}", file=sys.stderr)
+        return 2
     physics = _physics(args)
     design = make_face(args.face, args.h_over_d, args.rp, width=args.width)
     pred = predict(

@@ -41,14 +41,17 @@ from .geometry import FaceDesign
 __all__ = [
     "DEFAULT_MAX_DISTANCE_WIDTHS",
     "DEFAULT_MAX_TILT_RAD",
+    "MAX_FACING_ANGLE_RAD",
     "QUATERNION_NORM_TOL",
     "AbsurdDistanceError",
     "DockStart",
     "NonFiniteInputError",
     "NonPlanarOrientationError",
     "NonUnitQuaternionError",
+    "NotFacingError",
     "PlanarPose",
     "check_distance",
+    "check_facing",
     "mated_pose",
     "moving_pose",
     "path_poses",
@@ -73,6 +76,11 @@ DEFAULT_MAX_TILT_RAD = 0.05
 #: connector reported kilometres away is a unit or frame error, not a docking attempt).
 DEFAULT_MAX_DISTANCE_WIDTHS = 1000.0
 
+#: Largest |theta0| (rad) at which the faces still face each other. Beyond it the moving face
+#: points away from the base (theta0 = pi, relative yaw 0 = the identity quaternion, is back to
+#: back): the model has no docking to predict there.
+MAX_FACING_ANGLE_RAD = math.pi / 2
+
 
 class NonFiniteInputError(InputError):
     """A coordinate or quaternion component is NaN or infinite."""
@@ -88,6 +96,10 @@ class NonPlanarOrientationError(InputError):
 
 class AbsurdDistanceError(InputError):
     """The relative position is absurdly far for the connector's size."""
+
+
+class NotFacingError(InputError):
+    """The faces do not face each other: |theta0| > :data:`MAX_FACING_ANGLE_RAD`."""
 
 
 class PlanarPose(NamedTuple):
@@ -233,6 +245,30 @@ def check_distance(
                 f"|{name}| = {abs(value):g} is {abs(value) / width:.4g} face widths, "
                 f"more than {max_widths:g}"
             )
+
+
+def check_facing(theta0: float) -> None:
+    """Raise unless the faces face each other, ``|theta0| <= pi/2`` (NaN is left to the
+    finiteness checks).
+
+    Raises
+    ------
+    NotFacingError
+
+    Examples
+    --------
+    >>> check_facing(0.3)
+    >>> check_facing(math.pi)
+    Traceback (most recent call last):
+    ...
+    xface_core.frames.NotFacingError: |theta0| = 3.142 rad > pi/2: the faces do not face ...
+    """
+    if abs(theta0) > MAX_FACING_ANGLE_RAD:
+        raise NotFacingError(
+            f"|theta0| = {abs(theta0):.4g} rad > pi/2: the faces do not face each other "
+            "(theta0 = 0, relative yaw pi, is aligned; relative yaw 0, the identity "
+            "quaternion, is back to back)"
+        )
 
 
 def relative_pose_to_start(pose: PlanarPose) -> DockStart:

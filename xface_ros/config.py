@@ -13,7 +13,7 @@ from __future__ import annotations
 import math
 import os
 import time
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -33,6 +33,9 @@ __all__ = [
     "ParamValue",
     "config_from_values",
     "default_record_path",
+    "normalise_frame_id",
+    "params_file_applied",
+    "params_file_paths",
 ]
 
 ParamValue = bool | int | float | str
@@ -98,8 +101,8 @@ SPECS: tuple[ParamSpec, ...] = (
         "base_frame",
         "xface_base",
         "Frame id of the base part's pivot frame (+y out of the base face); input poses must "
-        "carry it and every output is expressed in it.",
-        constraints="non-empty, no whitespace, no leading '/'",
+        "carry it and every output is expressed in it. A leading '/' is dropped, as tf2 does.",
+        constraints="non-empty, no whitespace",
     ),
     ParamSpec(
         "input_timeout_s",
@@ -265,12 +268,20 @@ def _face_letter(value: Any) -> str:
     return face
 
 
+def normalise_frame_id(frame_id: str) -> str:
+    """A frame id as tf2 compares it: without leading slashes (``/xface_base`` is
+    ``xface_base``; tf2 frame ids carry no slash, ROS 1 style ids did).
+
+    >>> normalise_frame_id("/xface_base")
+    'xface_base'
+    """
+    return frame_id.lstrip("/")
+
+
 def _base_frame(value: Any) -> str:
-    frame = str(value)
-    if not frame or frame.startswith("/") or any(c.isspace() for c in frame):
-        raise ConfigError(
-            f"base_frame must be non-empty, without whitespace or a leading '/'; got {frame!r}"
-        )
+    frame = normalise_frame_id(str(value))
+    if not frame or any(c.isspace() for c in frame):
+        raise ConfigError(f"base_frame must be non-empty and without whitespace; got {value!r}")
     return frame
 
 
@@ -333,4 +344,56 @@ def config_from_values(values: Mapping[str, Any]) -> NodeConfig:
         record_url=str(values["record_url"]),
         design=design,
         physics=physics,
+    )
+
+
+# --- does a --params-file reach the node? ----------------------------------------------------
+
+
+def params_file_paths(argv: Sequence[str]) -> list[str]:
+    """The ``--params-file`` paths among the ROS arguments of a command line.
+
+    ROS arguments run from ``--ros-args`` to ``--`` (or the end); there may be several such
+    sections.
+
+    >>> params_file_paths(["prog", "--ros-args", "-r", "__ns:=/left", "--params-file", "a.yaml"])
+    ['a.yaml']
+    >>> params_file_paths(["prog", "--params-file", "x.yaml"])  # not a ROS argument
+    []
+    """
+    paths: list[str] = []
+    in_ros_args = False
+    args = list(argv)
+    for i, arg in enumerate(args):
+        if arg == "--ros-args":
+            in_ros_args = True
+        elif arg == "--":
+            in_ros_args = False
+        elif in_ros_args and arg == "--params-file" and i + 1 < len(args):
+            paths.append(args[i + 1])
+    return paths
+
+
+def params_file_applied(
+    file_values: Mapping[str, object], node_overrides: Mapping[str, object]
+) -> bool:
+    """Whether any of this node's parameters in a params file reached the node.
+
+    ``file_values`` are the file's parameters under every node key it has, ``node_overrides``
+    the overrides rcl matched to this node (its name and namespace against the file's keys).
+    A file whose keys name another node (``xface_predictor:`` for a node renamed
+    ``dock_left``) gives the node none of its values: the node then runs on its defaults,
+    which is worth a warning.
+
+    >>> params_file_applied({"width_m": 0.1}, {"width_m": 0.1})
+    True
+    >>> params_file_applied({"width_m": 0.1}, {})
+    False
+    >>> params_file_applied({"use_sim_time": True}, {"use_sim_time": True})
+    True
+    """
+    # Any parameter counts, ours or rclpy's own (a file may set only use_sim_time).
+    return any(
+        name in node_overrides and node_overrides[name] == value
+        for name, value in file_values.items()
     )

@@ -9,12 +9,14 @@ pivot frame (``base_frame``), as it was at the start of the prediction; lengths 
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable
 
 import numpy as np
 import numpy.typing as npt
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
+from diagnostic_msgs.srv import SelfTest
 from geometry_msgs.msg import Point, Pose, PoseStamped, Quaternion, Vector3
 from nav_msgs.msg import Path
 from std_msgs.msg import ColorRGBA, Header
@@ -27,10 +29,9 @@ from xface_core.frames import (
 )
 from xface_core.outcome import Outcome
 from xface_core.result import Prediction
-from xface_ros.decision import PoseInput, Predicted, Rejected
+from xface_ros.decision import PoseInput, Predicted, Rejected, Verdict, answer
 
 __all__ = [
-    "STATUS_NAME",
     "input_error_status",
     "key_value",
     "markers_msg",
@@ -41,11 +42,17 @@ __all__ = [
     "pose_input",
     "prediction_status",
     "seated_pose_msg",
+    "self_test_response",
     "stamp_to_ns",
+    "status_name",
+    "verdict_status",
 ]
 
-#: Name of every DiagnosticStatus on ``prediction/status``.
-STATUS_NAME = "xface_predictor: prediction"
+
+def status_name(node_fqn: str) -> str:
+    """Name of every DiagnosticStatus on ``prediction/status``: the node's fully qualified name
+    (e.g. ``/left/dock_left``), so statuses of several nodes can be told apart."""
+    return f"{node_fqn}: prediction"
 
 
 def stamp_to_ns(stamp: Time) -> int:
@@ -98,7 +105,7 @@ def _stamp_text(stamp_ns: int) -> str:
     return f"{sec}.{nanosec:09d}"
 
 
-def prediction_status(predicted: Predicted, *, hardware_id: str) -> DiagnosticStatus:
+def prediction_status(predicted: Predicted, *, name: str, hardware_id: str) -> DiagnosticStatus:
     """The ``prediction/status`` message of a prediction.
 
     Level OK when accepted, WARN otherwise (will not seat, or seats without the required
@@ -145,7 +152,7 @@ def prediction_status(predicted: Predicted, *, hardware_id: str) -> DiagnosticSt
         key_value("r_p", design.r_p),
     ]
     return DiagnosticStatus(
-        level=level, name=STATUS_NAME, message=message, hardware_id=hardware_id, values=values
+        level=level, name=name, message=message, hardware_id=hardware_id, values=values
     )
 
 
@@ -169,11 +176,11 @@ def _stamp_values(stamp_ns: int) -> list[KeyValue]:
     return [key_value("input_stamp", _stamp_text(stamp_ns)), key_value("input_stamp_ns", stamp_ns)]
 
 
-def input_error_status(rejected: Rejected, *, hardware_id: str) -> DiagnosticStatus:
+def input_error_status(rejected: Rejected, *, name: str, hardware_id: str) -> DiagnosticStatus:
     """The ERROR ``prediction/status`` of a rejected input."""
     return DiagnosticStatus(
         level=DiagnosticStatus.ERROR,
-        name=STATUS_NAME,
+        name=name,
         message=f"INVALID_INPUT: {rejected.code}: {rejected.detail}",
         hardware_id=hardware_id,
         values=[
@@ -183,6 +190,26 @@ def input_error_status(rejected: Rejected, *, hardware_id: str) -> DiagnosticSta
             key_value("input_error", rejected.code),
             *_stamp_values(rejected.stamp_ns),
         ],
+    )
+
+
+def verdict_status(verdict: Verdict, *, name: str, hardware_id: str) -> DiagnosticStatus:
+    """The ``prediction/status`` message of any verdict: a prediction or a rejected input."""
+    if isinstance(verdict, Rejected):
+        return input_error_status(verdict, name=name, hardware_id=hardware_id)
+    return prediction_status(verdict, name=name, hardware_id=hardware_id)
+
+
+def self_test_response(
+    verdict: Verdict, *, node_fqn: str, name: str, hardware_id: str
+) -> SelfTest.Response:
+    """The ``predict_status`` answer: ``passed`` 1 when accepted, one status as on
+    ``prediction/status`` plus the ``answer`` value (a key of
+    :data:`~xface_ros.decision.ANSWERS`), ``id`` the node's fully qualified name."""
+    status = verdict_status(verdict, name=name, hardware_id=hardware_id)
+    status.values = [key_value("answer", answer(verdict)), *status.values]
+    return SelfTest.Response(
+        id=node_fqn, passed=b"\x01" if verdict.accepted else b"\x00", status=[status]
     )
 
 
@@ -218,9 +245,18 @@ def path_msg(prediction: Prediction, header: Header, *, max_poses: int) -> Path:
     return msg
 
 
-def seated_pose_msg(seat: PlanarPose, header: Header) -> PoseStamped:
+def seated_pose_msg(seat: PlanarPose | None, header: Header) -> PoseStamped:
     """The pose the moving pivot frame seats at (:attr:`Predicted.seated_pose
-    <xface_ros.decision.Predicted.seated_pose>`) as a ``geometry_msgs/PoseStamped``."""
+    <xface_ros.decision.Predicted.seated_pose>`) as a ``geometry_msgs/PoseStamped``.
+
+    ``None`` (no seat: it will not seat, or the input was rejected) gives an empty
+    ``frame_id`` and a NaN position with the same stamp: the latched topic then says "no seat
+    for this input" instead of keeping an earlier seat, and a consumer that ignores the frame
+    gets NaN, not a plausible pose.
+    """
+    if seat is None:
+        no_seat = Pose(position=Point(x=math.nan, y=math.nan, z=math.nan))
+        return PoseStamped(header=Header(stamp=header.stamp, frame_id=""), pose=no_seat)
     return PoseStamped(header=header, pose=planar_to_pose(seat))
 
 

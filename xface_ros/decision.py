@@ -21,6 +21,7 @@ import math
 import threading
 import time
 from dataclasses import dataclass, field, replace
+from typing import ClassVar
 
 from xface_core.errors import XfaceError
 from xface_core.frames import (
@@ -28,8 +29,10 @@ from xface_core.frames import (
     DockStart,
     NonPlanarOrientationError,
     NonUnitQuaternionError,
+    NotFacingError,
     PlanarPose,
     check_distance,
+    check_facing,
     moving_pose,
     planar_yaw,
     relative_pose_to_start,
@@ -37,9 +40,10 @@ from xface_core.frames import (
 from xface_core.outcome import Outcome
 from xface_core.predict import predict
 from xface_core.result import Margins, Prediction
-from xface_ros.config import NodeConfig
+from xface_ros.config import NodeConfig, normalise_frame_id
 
 __all__ = [
+    "ANSWERS",
     "INPUT_ERRORS",
     "Decision",
     "InputRejected",
@@ -51,6 +55,7 @@ __all__ = [
     "StatsSnapshot",
     "StatsWindow",
     "Verdict",
+    "answer",
     "check_pose",
     "combined_margin",
     "decide",
@@ -70,7 +75,9 @@ INPUT_ERRORS: dict[str, str] = {
     "unnormalised_quaternion": "the quaternion's norm is not 1",
     "non_planar": "the orientation rolls or pitches beyond max_tilt_rad",
     "absurd_distance": "|x| or |y| is beyond max_distance_widths face widths",
+    "not_facing": "|theta0| > pi/2: the faces do not face each other (yaw 0 is back to back)",
     "no_pose": "no pose has been received yet (service: empty start frame id)",
+    "bad_tolerance": "the query's tolerance is negative or not finite",
     "invalid_input": "the simulator refused the start (e.g. the parts interpenetrate)",
     "internal_error": "the simulator failed unexpectedly (a bug: the message has the details)",
 }
@@ -99,11 +106,12 @@ class PoseInput:
     orientation: tuple[float, float, float, float]
 
 
-# --- input checks, in the documented order: frame, finiteness, stamp, quaternion, distance ---
+# --- input checks, in the documented order: frame, finiteness, stamp, quaternion, distance,
+# --- facing ----------------------------------------------------------------------------------
 
 
 def _check_frame(pose: PoseInput, base_frame: str) -> None:
-    if pose.frame_id != base_frame:
+    if normalise_frame_id(pose.frame_id) != base_frame:
         raise InputRejected(
             "wrong_frame", f"frame_id {pose.frame_id!r} is not the base frame {base_frame!r}"
         )
@@ -120,13 +128,22 @@ def _check_stamp(stamp_ns: int, now_ns: int, timeout_s: float) -> None:
     """Stale or future stamps, judged against ``now_ns``; ``timeout_s`` 0 disables."""
     if timeout_s <= 0.0:
         return
+    if stamp_ns == 0:  # "1.7e9 s old" would hide what happened: the sender never set it
+        raise InputRejected("stale_stamp", "zero stamp: header.stamp was never set")
     age_s = (now_ns - stamp_ns) * 1e-9
     if age_s > timeout_s:
         raise InputRejected(
-            "stale_stamp", f"pose is {age_s:.3f} s old, input_timeout_s {timeout_s:g}"
+            "stale_stamp",
+            f"pose is {age_s:.3f} s old, input_timeout_s {timeout_s:g}: a late pose, or clock "
+            "skew (the sender's clock behind the node's; use_sim_time on one side only?)",
         )
     if -age_s > timeout_s:
-        raise InputRejected("future_stamp", f"pose stamp is {-age_s:.3f} s ahead of the node clock")
+        # Nothing arrives before it is sent: a stamp from the future is always clock skew.
+        raise InputRejected(
+            "future_stamp",
+            f"clock skew: the stamp is {-age_s:.3f} s ahead of the node's clock "
+            f"(input_timeout_s {timeout_s:g})",
+        )
 
 
 def _planar_pose(pose: PoseInput, config: NodeConfig) -> PlanarPose:
@@ -155,13 +172,19 @@ def check_pose(pose: PoseInput, config: NodeConfig, *, now_ns: int | None) -> Do
     Raises
     ------
     InputRejected
-        The first failed check, in the order frame, finiteness, stamp, quaternion, distance.
+        The first failed check, in the order frame, finiteness, stamp, quaternion, distance,
+        facing (``|theta0| <= pi/2`` after the conversion).
     """
     _check_frame(pose, config.base_frame)
     _check_finite(pose)
     if now_ns is not None:
         _check_stamp(pose.stamp_ns, now_ns, config.input_timeout_s)
-    return relative_pose_to_start(_planar_pose(pose, config))
+    start = relative_pose_to_start(_planar_pose(pose, config))
+    try:
+        check_facing(start.theta0)
+    except NotFacingError as exc:
+        raise InputRejected("not_facing", str(exc)) from exc
+    return start
 
 
 # --- acceptance -----------------------------------------------------------------------------
@@ -212,10 +235,11 @@ def decide(prediction: Prediction, *, required_margin_m: float) -> Decision:
 
 
 def required_margin_m(tolerance_m: float, config: NodeConfig) -> float:
-    """The margin (m) a query asks for: its tolerance when finite and > 0, else ``min_margin``."""
-    if math.isfinite(tolerance_m) and tolerance_m > 0.0:
-        return tolerance_m
-    return config.min_margin
+    """The margin (m) a query asks for: its tolerance when > 0, else (0) ``min_margin``.
+
+    A negative or non-finite tolerance never gets here: :func:`evaluate_query` rejects it.
+    """
+    return tolerance_m if tolerance_m > 0.0 else config.min_margin
 
 
 # --- verdicts -------------------------------------------------------------------------------
@@ -232,6 +256,8 @@ class Rejected:
     detail: str
 
     accepted = False
+    seated_pose: ClassVar[PlanarPose | None] = None
+    """A rejected pose has no seat (as :attr:`Predicted.seated_pose` when it does not seat)."""
 
 
 @dataclass(frozen=True)
@@ -264,6 +290,30 @@ class Predicted:
 
 
 Verdict = Rejected | Predicted
+
+
+#: The answer a planner reads first (the ``answer`` value of ``predict_status``), with what it
+#: means; the reason and margins come with it.
+ANSWERS: dict[str, str] = {
+    "no_pose": "no pose has been received yet",
+    "stale": "the latest pose is older than input_timeout_s",
+    "invalid": "the pose was rejected (input_error says which check failed)",
+    "will_not_seat": "simulated: it will not seat (outcome and reason say how it ends)",
+    "seats_without_margin": "simulated: it seats, with less than the required margin",
+    "seats": "simulated: it seats (with the required margin)",
+}
+
+#: Rejections with an answer of their own; every other input error answers "invalid".
+_REJECTION_ANSWERS = {"no_pose": "no_pose", "stale_stamp": "stale"}
+
+
+def answer(verdict: Verdict) -> str:
+    """The key of :data:`ANSWERS` for a verdict."""
+    if isinstance(verdict, Rejected):
+        return _REJECTION_ANSWERS.get(verdict.code, "invalid")
+    if verdict.accepted:
+        return "seats"
+    return "seats_without_margin" if verdict.prediction.seated else "will_not_seat"
 
 
 def simulate(
@@ -342,8 +392,14 @@ def evaluate_query(
     An empty ``requested.frame_id`` means the latest streamed pose, subject to
     ``input_timeout_s`` against ``now_ns``; an explicit start is not checked for staleness
     (planners ask about hypothetical poses). ``tolerance_m`` > 0 is the required combined
-    margin; 0 uses ``min_margin``.
+    margin; 0 uses ``min_margin``; a negative or non-finite one is rejected (``bad_tolerance``).
     """
+    if not (math.isfinite(tolerance_m) and tolerance_m >= 0.0):
+        return Rejected(
+            requested.stamp_ns,
+            "bad_tolerance",
+            f"tolerance {tolerance_m!r} m: a required margin is finite and >= 0 (0: min_margin)",
+        )
     check_now_ns: int | None = None
     pose = requested
     if not requested.frame_id:
@@ -384,7 +440,9 @@ class StatsCounts:
     """True until the simulator is loaded (the first simulation compiles or loads it)."""
     predicted_total: int = 0
     input_errors_total: int = 0
-    dds_lost_total: int = 0
+    dds_lost_reported_total: int = 0
+    """Losses the middleware reported (message-lost event); Fast DDS reports none for a best-effort
+    reader queue that overflows, so this is not a count of the poses that never arrived."""
     service_calls_total: int = 0
     recording_errors_total: int = 0
     last_outcome: str = "none"
@@ -462,10 +520,10 @@ class PredictorStats:
         with self._lock:
             self._counts.recording_errors_total += 1
 
-    def set_dds_lost_total(self, total: int) -> None:
-        """The middleware's running count of lost messages."""
+    def set_dds_lost_reported_total(self, total: int) -> None:
+        """The middleware's running count of the lost messages it reports."""
         with self._lock:
-            self._counts.dds_lost_total = int(total)
+            self._counts.dds_lost_reported_total = int(total)
 
     def set_warming_up(self, warming_up: bool) -> None:
         with self._lock:

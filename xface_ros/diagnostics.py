@@ -53,7 +53,9 @@ def predictor_values(
         "received_total": snapshot.received_total,
         "predicted_total": counts.predicted_total,
         "dropped_total": snapshot.dropped_total,
-        "dds_lost_total": counts.dds_lost_total,
+        "dds_lost_reported_total": counts.dds_lost_reported_total,
+        # The old name, kept for existing readers: it never counted the poses lost in DDS.
+        "dds_lost_total": counts.dds_lost_reported_total,
         "input_errors_total": counts.input_errors_total,
         "service_calls_total": counts.service_calls_total,
         "recording_errors_total": counts.recording_errors_total,

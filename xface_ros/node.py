@@ -11,19 +11,25 @@ subscription, the ``predict`` service and the diagnostics timer, and hands work 
   the warm-up it waits for the simulator to load, then answers);
 * the timer formats the worker's stats with :mod:`xface_ros.diagnostics`.
 
-The constructor does not simulate: every interface exists before the (possibly long) warm-up.
-``main()`` owns init, spin and shutdown. The interface (topics, QoS, service, parameters) is
+The plain node's constructor does not simulate: every interface exists before the (possibly
+long) warm-up. With ``--lifecycle`` the managed node warms up in ``configure`` and opens its
+inputs in ``activate`` (docs/ros.md, "Lifecycle mode"). ``main()`` owns init, spin and
+shutdown. The interface (topics, QoS, service, parameters) is
 documented in docs/ros.md.
 """
 
 from __future__ import annotations
 
+import argparse
 import sys
 import threading
+import time
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+from diagnostic_msgs.srv import SelfTest
 from geometry_msgs.msg import PoseStamped
 from nav_msgs.msg import Path
 from nav_msgs.srv import GetPlan
@@ -32,8 +38,9 @@ from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
 from rclpy.event_handler import QoSMessageLostInfo, SubscriptionEventCallbacks
 from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.lifecycle import LifecycleNodeMixin, LifecycleState, TransitionCallbackReturn
 from rclpy.node import Node
-from rclpy.parameter import Parameter
+from rclpy.parameter import Parameter, parameter_dict_from_yaml_file
 from rclpy.qos import (
     DurabilityPolicy,
     HistoryPolicy,
@@ -42,19 +49,23 @@ from rclpy.qos import (
     qos_profile_sensor_data,
 )
 from rclpy.signals import SignalHandlerOptions
+from rclpy.utilities import remove_ros_args
 from std_msgs.msg import Bool, Header
 from visualization_msgs.msg import MarkerArray
 
+from xface_ros import worker as worker_module
+from xface_ros.config import params_file_applied, params_file_paths
 from xface_ros.conversions import (
-    input_error_status,
     markers_msg,
     ns_to_stamp,
     path_msg,
     pose_input,
-    prediction_status,
     seated_pose_msg,
+    self_test_response,
+    status_name,
+    verdict_status,
 )
-from xface_ros.decision import Rejected, Verdict, evaluate_query
+from xface_ros.decision import PoseInput, Rejected, Verdict, evaluate_query
 from xface_ros.diagnostics import diagnostic_array, predictor_status
 from xface_ros.params import (
     DESIGN_PARAMETERS,
@@ -68,9 +79,14 @@ from xface_ros.params import (
 from xface_ros.recorder import Recorder
 from xface_ros.worker import LOG_THROTTLE_S, PredictionWorker
 
-__all__ = ["NODE_NAME", "XfacePredictor", "main"]
+__all__ = ["NODE_NAME", "XfaceLifecyclePredictor", "XfacePredictor", "main"]
 
 NODE_NAME = "xface_predictor"
+
+#: A query for the latest streamed pose (an empty frame id, as in GetPlan's start).
+_LATEST = PoseInput(
+    frame_id="", stamp_ns=0, position=(0.0, 0.0, 0.0), orientation=(0.0, 0.0, 0.0, 1.0)
+)
 
 #: Results: reliable, a short queue (subscribers that fall behind lose old results, not new).
 RESULT_QOS = QoSProfile(
@@ -95,29 +111,56 @@ BULK_QOS = QoSProfile(
 )
 
 
-class XfacePredictor(Node):
-    """Predicts docking acceptance for a stream of relative poses and for planner queries.
+class _Predictor(Node):
+    """The wiring both node kinds share: parameters, outputs, inputs and their callbacks.
 
-    Callback groups keep the subscription, the service and the timer apart, so the node
-    also works under a multi-threaded executor.
+    Outputs (publishers, the recording, the worker) and inputs (the pose subscription, the
+    services, the diagnostics timer) are made and released by separate methods, so the plain
+    node can make everything at once and the managed node in its transitions. Callback groups
+    keep the subscription, the services and the timer apart, so the node also works under a
+    multi-threaded executor.
     """
 
-    def __init__(self, **node_kwargs: Any) -> None:
+    def __init__(self, *, params_files: Sequence[str] = (), **node_kwargs: Any) -> None:
+        """``params_files``: the ``--params-file`` paths of the command line, to warn when none
+        of their values reached this node (see :meth:`_warn_unapplied_params_files`)."""
         super().__init__(NODE_NAME, **node_kwargs)
         # Raises (and so refuses to start) on out-of-range or inconsistent overrides.
         self._config: NodeConfig = declare_parameters(self)
+        self._warn_unapplied_params_files(params_files)
+        self._status_name = status_name(self.get_fully_qualified_name())
         self._config_lock = threading.Lock()
         self.add_on_set_parameters_callback(self._validate_parameters)
         self.add_post_set_parameters_callback(self._apply_parameters)
+        self._publishers_made: list[Any] = []
+        self._inputs: list[tuple[Any, Any]] = []  # (entity, its destroy method)
+        self._recorder: Recorder | None = None
+        self._worker: PredictionWorker | None = None
 
-        self._accepted_pub = self.create_publisher(Bool, "prediction/accepted", RESULT_QOS)
-        self._status_pub = self.create_publisher(DiagnosticStatus, "prediction/status", RESULT_QOS)
-        self._path_pub = self.create_publisher(Path, "prediction/path", BULK_QOS)
-        self._seated_pub = self.create_publisher(PoseStamped, "prediction/seated_pose", LATCHED_QOS)
-        self._markers_pub = self.create_publisher(MarkerArray, "prediction/markers", BULK_QOS)
-        self._diagnostics_pub = self.create_publisher(DiagnosticArray, "/diagnostics", RESULT_QOS)
+    @property
+    def _running_worker(self) -> PredictionWorker:
+        """The worker: inputs exist only while it does (between making and releasing outputs)."""
+        if self._worker is None:
+            raise RuntimeError("the predictor's outputs are released")
+        return self._worker
 
-        self._recorder = Recorder.open(self._config, self.get_logger())
+    # --- making and releasing the interfaces ------------------------------------------------
+
+    def _publisher(self, msg_type: Any, topic: str, qos: QoSProfile) -> Any:
+        """A publisher (the managed node makes lifecycle publishers)."""
+        publisher = self.create_publisher(msg_type, topic, qos)
+        self._publishers_made.append(publisher)
+        return publisher
+
+    def _make_outputs(self, *, warm_up: Callable[[NodeConfig], None] | None = None) -> None:
+        """Publishers, the recording and the worker (not started); ``warm_up`` as the worker's."""
+        self._accepted_pub = self._publisher(Bool, "prediction/accepted", RESULT_QOS)
+        self._status_pub = self._publisher(DiagnosticStatus, "prediction/status", RESULT_QOS)
+        self._path_pub = self._publisher(Path, "prediction/path", BULK_QOS)
+        self._seated_pub = self._publisher(PoseStamped, "prediction/seated_pose", LATCHED_QOS)
+        self._markers_pub = self._publisher(MarkerArray, "prediction/markers", BULK_QOS)
+        self._diagnostics_pub = self._publisher(DiagnosticArray, "/diagnostics", RESULT_QOS)
+        self._recorder = Recorder.open(self.config, self.get_logger())
         self._worker = PredictionWorker(
             config=lambda: self.config,
             now_ns=self._now_ns,
@@ -126,9 +169,12 @@ class XfacePredictor(Node):
             logger=self.get_logger(),
             recorder=self._recorder,
             shutting_down=lambda: not self.context.ok(),
+            warm_up=warm_up,
         )
 
-        self._pose_sub = self.create_subscription(
+    def _make_inputs(self) -> None:
+        """The pose subscription, the two services and the diagnostics timer."""
+        pose_sub = self.create_subscription(
             PoseStamped,
             "relative_pose",
             self._on_pose,
@@ -136,24 +182,47 @@ class XfacePredictor(Node):
             callback_group=MutuallyExclusiveCallbackGroup(),
             event_callbacks=SubscriptionEventCallbacks(message_lost=self._on_message_lost),
         )
-        self._service = self.create_service(
+        plan_service = self.create_service(
             GetPlan,
             "predict",
             self._on_predict_request,
             callback_group=MutuallyExclusiveCallbackGroup(),
         )
-        self._diagnostics_timer = self.create_timer(
-            self._config.diagnostics_period_s,
+        # The planner's answer with its reason in one call: a common type (no interface package
+        # to build), the status of prediction/status plus "answer" (docs/ros.md says why).
+        status_service = self.create_service(
+            SelfTest,
+            "predict_status",
+            self._on_status_request,
+            callback_group=MutuallyExclusiveCallbackGroup(),
+        )
+        timer = self.create_timer(
+            self.config.diagnostics_period_s,
             self._publish_diagnostics,
             callback_group=MutuallyExclusiveCallbackGroup(),
         )
-        # Last: the worker warms the simulator up on its own thread (seconds on a fresh
-        # checkout, which compiles it) while every interface above already exists.
-        self._worker.start()
+        self._inputs = [
+            (pose_sub, self.destroy_subscription),
+            (plan_service, self.destroy_service),
+            (status_service, self.destroy_service),
+            (timer, self.destroy_timer),
+        ]
         self.get_logger().info(
-            f"predicting for the {self._describe(self._config)}; poses on "
-            f"{self._pose_sub.topic_name} in frame {self._config.base_frame!r}"
+            f"predicting for the {self._describe(self.config)}; poses on "
+            f"{pose_sub.topic_name} in frame {self.config.base_frame!r}"
         )
+
+    def _release_inputs(self) -> None:
+        inputs, self._inputs = self._inputs, []
+        for entity, destroy in inputs:
+            destroy(entity)
+
+    def _release_outputs(self) -> None:
+        """Stop the worker, finish the recording, then release the publishers."""
+        self.close()
+        publishers, self._publishers_made = self._publishers_made, []
+        for publisher in publishers:
+            self.destroy_publisher(publisher)
 
     # --- parameters -------------------------------------------------------------------------
 
@@ -169,6 +238,29 @@ class XfacePredictor(Node):
             f"{config.face}-Face D={config.width_m:g} m H/D={config.h_over_d:g} "
             f"r_p={config.r_p:g} c_B/c_M={config.damping_ratio:g} friction={config.friction:g}"
         )
+
+    def _warn_unapplied_params_files(self, paths: Sequence[str]) -> None:
+        """Warn about a params file whose keys match another node (it then sets nothing here).
+
+        rcl matches a file's keys against the node's name and namespace; a file written for
+        ``xface_predictor`` silently does nothing for ``/left/dock_left``. rclpy keeps the
+        matched overrides in ``_parameter_overrides`` (no public accessor in Jazzy).
+        """
+        overrides = {name: p.value for name, p in self._parameter_overrides.items()}
+        for path in paths:
+            try:
+                msgs = parameter_dict_from_yaml_file(path)
+            except Exception:  # rcl read it already; whatever it was, there is no list to check
+                continue
+            file_values = {
+                name: Parameter.from_parameter_msg(msg).value for name, msg in msgs.items()
+            }
+            if file_values and not params_file_applied(file_values, overrides):
+                self.get_logger().warning(
+                    f"params file {path} sets none of this node's parameters: none of its keys "
+                    f"matches {self.get_fully_qualified_name()}; running on built-in defaults "
+                    f"(key the file with '/**:' or '{self.get_fully_qualified_name()}:')"
+                )
 
     def _validate_parameters(self, params: list[Parameter]) -> SetParametersResult:
         try:
@@ -194,10 +286,10 @@ class XfacePredictor(Node):
         return int(self.get_clock().now().nanoseconds)
 
     def _on_pose(self, msg: PoseStamped) -> None:
-        self._worker.submit(pose_input(msg), receive_ns=self._now_ns())
+        self._running_worker.submit(pose_input(msg), receive_ns=self._now_ns())
 
     def _on_message_lost(self, info: QoSMessageLostInfo) -> None:
-        self._worker.stats.set_dds_lost_total(info.total_count)
+        self._running_worker.stats.set_dds_lost_reported_total(info.total_count)
 
     # --- output of the worker (runs on the worker thread) -----------------------------------
 
@@ -210,14 +302,16 @@ class XfacePredictor(Node):
 
     def _publish_verdict(self, verdict: Verdict, config: NodeConfig) -> None:
         """Publish a streamed pose's verdict with the config it was decided with."""
-        if isinstance(verdict, Rejected):
-            self._status_pub.publish(input_error_status(verdict, hardware_id=config.base_frame))
-            return
         header = Header(stamp=ns_to_stamp(verdict.stamp_ns), frame_id=config.base_frame)
-        self._accepted_pub.publish(Bool(data=verdict.accepted))
-        self._status_pub.publish(prediction_status(verdict, hardware_id=config.base_frame))
-        if verdict.seated_pose is not None:
-            self._seated_pub.publish(seated_pose_msg(verdict.seated_pose, header))
+        if not isinstance(verdict, Rejected):
+            self._accepted_pub.publish(Bool(data=verdict.accepted))
+        self._status_pub.publish(
+            verdict_status(verdict, name=self._status_name, hardware_id=config.base_frame)
+        )
+        # Every verdict replaces the latched seat: a seat never outlives a later failure.
+        self._seated_pub.publish(seated_pose_msg(verdict.seated_pose, header))
+        if isinstance(verdict, Rejected):
+            return
         prediction = verdict.prediction
         if prediction.path is not None and self._path_pub.get_subscription_count() > 0:
             self._path_pub.publish(path_msg(prediction, header, max_poses=config.max_path_poses))
@@ -234,17 +328,11 @@ class XfacePredictor(Node):
         An empty ``start.header.frame_id`` means the latest streamed pose (subject to
         ``input_timeout_s``); an explicit start is not checked for staleness (planners ask
         about hypothetical poses). ``tolerance`` > 0 is the required combined margin (m);
-        0 uses ``min_margin``. ``goal`` is ignored: the goal is the seat.
+        0 uses ``min_margin``; a negative or non-finite one is refused (``bad_tolerance``).
+        ``goal`` is ignored: the goal is the seat.
         """
         config = self.config
-        self._worker.stats.count_service_call()
-        verdict = evaluate_query(
-            pose_input(request.start),
-            self._worker.latest_pose,
-            config,
-            tolerance_m=float(request.tolerance),
-            now_ns=self._now_ns(),
-        )
+        verdict = self._query(pose_input(request.start), config, float(request.tolerance))
         if isinstance(verdict, Rejected):
             response.plan = Path(header=Header(frame_id=config.base_frame))
             self.get_logger().warning(
@@ -266,14 +354,43 @@ class XfacePredictor(Node):
         )
         return response
 
+    def _query(self, start: PoseInput, config: NodeConfig, tolerance_m: float) -> Verdict:
+        """A counted planner query: ``start`` (empty frame: the latest pose) against ``config``."""
+        self._running_worker.stats.count_service_call()
+        return evaluate_query(
+            start,
+            self._running_worker.latest_pose,
+            config,
+            tolerance_m=tolerance_m,
+            now_ns=self._now_ns(),
+        )
+
+    def _on_status_request(
+        self, _request: SelfTest.Request, _response: SelfTest.Response
+    ) -> SelfTest.Response:
+        """SelfTest: the latest streamed pose's answer, reason and margins in one call.
+
+        The same question as GetPlan with an empty start (``min_margin`` required), answered
+        with the status of ``prediction/status`` plus ``answer`` (no_pose, stale, invalid,
+        will_not_seat, seats_without_margin, seats); ``passed`` is 1 when accepted.
+        """
+        config = self.config
+        verdict = self._query(_LATEST, config, 0.0)
+        return self_test_response(
+            verdict,
+            node_fqn=self.get_fully_qualified_name(),
+            name=self._status_name,
+            hardware_id=config.base_frame,
+        )
+
     # --- diagnostics -------------------------------------------------------------------------
 
     def _publish_diagnostics(self) -> None:
-        snapshot = self._worker.take_stats(self._now_ns())
+        snapshot = self._running_worker.take_stats(self._now_ns())
         status = predictor_status(
             snapshot,
             self.config,
-            node_name=self.get_name(),
+            node_name=self.get_fully_qualified_name(),
             recording_path=self._recorder.path if self._recorder is not None else "",
         )
         stamp = self.get_clock().now().to_msg()
@@ -283,7 +400,9 @@ class XfacePredictor(Node):
 
     def close(self) -> None:
         """Stop the worker and finish the recording (idempotent)."""
-        self._worker.stop(timeout_s=30.0)
+        worker, self._worker = self._worker, None
+        if worker is not None:
+            worker.stop(timeout_s=30.0)
         recorder, self._recorder = self._recorder, None
         if recorder is None:
             return
@@ -307,21 +426,105 @@ class XfacePredictor(Node):
         super().destroy_node()
 
 
+class XfacePredictor(_Predictor):
+    """The plain node: every interface exists from construction until the node is destroyed.
+
+    The constructor does not simulate: the worker warms the simulator up on its own thread
+    (seconds on a fresh checkout, which compiles it) while every interface already exists.
+    """
+
+    def __init__(self, *, params_files: Sequence[str] = (), **node_kwargs: Any) -> None:
+        super().__init__(params_files=params_files, **node_kwargs)
+        self._make_outputs()
+        self._make_inputs()
+        self._running_worker.start()
+
+
+class XfaceLifecyclePredictor(LifecycleNodeMixin, _Predictor):
+    """The managed node (``--lifecycle``), driven by ``<node>/change_state``.
+
+    * constructed (unconfigured): parameters only;
+    * ``configure``: publishers (lifecycle publishers, silent until active), the recording, and
+      the warm-up, in the transition itself (it returns once the simulator is loaded);
+    * ``activate``: the pose subscription, both services and the diagnostics timer;
+    * ``deactivate``: those released again (no answers, no predictions);
+    * ``cleanup`` / ``shutdown``: the worker stopped, the recording finished, all released.
+    """
+
+    def __init__(self, *, params_files: Sequence[str] = (), **node_kwargs: Any) -> None:
+        _Predictor.__init__(self, params_files=params_files, **node_kwargs)
+        LifecycleNodeMixin.__init__(self, enable_communication_interface=True)
+
+    def _publisher(self, msg_type: Any, topic: str, qos: QoSProfile) -> Any:
+        publisher = self.create_lifecycle_publisher(msg_type, topic, qos)
+        self._publishers_made.append(publisher)
+        return publisher
+
+    def destroy_publisher(self, publisher: Any) -> bool:
+        return bool(self.destroy_lifecycle_publisher(publisher))
+
+    def on_configure(self, state: LifecycleState) -> TransitionCallbackReturn:
+        t0 = time.perf_counter()
+        try:
+            # Looked up at call time, so a test can hold the warm-up back as for the plain node.
+            worker_module.warm_up_simulator(self.config)
+        except Exception as exc:
+            self.get_logger().error(f"configure failed: the warm-up prediction raised {exc!r}")
+            return TransitionCallbackReturn.FAILURE
+        self._make_outputs(warm_up=lambda _config: None)  # warmed up already
+        self._running_worker.start()
+        self.get_logger().info(f"configured: simulator loaded in {time.perf_counter() - t0:.1f} s")
+        return super().on_configure(state)
+
+    def on_activate(self, state: LifecycleState) -> TransitionCallbackReturn:
+        self._make_inputs()
+        return super().on_activate(state)  # enables the lifecycle publishers
+
+    def on_deactivate(self, state: LifecycleState) -> TransitionCallbackReturn:
+        self._release_inputs()
+        return super().on_deactivate(state)
+
+    def on_cleanup(self, state: LifecycleState) -> TransitionCallbackReturn:
+        self._release_outputs()
+        return super().on_cleanup(state)
+
+    def on_shutdown(self, state: LifecycleState) -> TransitionCallbackReturn:
+        self._release_inputs()
+        self._release_outputs()
+        return super().on_shutdown(state)
+
+
+def _parse_options(argv: Sequence[str]) -> argparse.Namespace:
+    """The node's own options (outside ``--ros-args``); argv[0] is the program."""
+    parser = argparse.ArgumentParser(
+        prog="xface-predictor", description="Run the xface_predictor ROS 2 node."
+    )
+    parser.add_argument(
+        "--lifecycle",
+        action="store_true",
+        help="start as a managed (lifecycle) node, driven by <node>/change_state",
+    )
+    return parser.parse_args(remove_ros_args(list(argv))[1:])
+
+
 def main(args: list[str] | None = None) -> int:
     """Run the node until SIGINT or SIGTERM; 0 on a clean shutdown, 2 on a bad configuration.
 
     rclpy's own handlers catch both signals (``SignalHandlerOptions.ALL``): they shut the
     context down, ``spin`` returns, and the ``finally`` block finishes the recording.
     """
-    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.ALL)
-    node: XfacePredictor | None = None
+    argv = sys.argv if args is None else args
+    options = _parse_options(argv)  # exits 2 with usage on an unknown option
+    rclpy.init(args=argv, signal_handler_options=SignalHandlerOptions.ALL)
+    node: _Predictor | None = None
     # One executor thread: rclpy's SingleThreadedExecutor takes a 1 kHz pose stream with far
     # fewer losses than its MultiThreadedExecutor (scripts/ros_stress.py, docs/ros.md); the
     # simulation runs in the worker thread, so callbacks stay short.
     executor = SingleThreadedExecutor()
     code = 0
     try:
-        node = XfacePredictor()
+        kind = XfaceLifecyclePredictor if options.lifecycle else XfacePredictor
+        node = kind(params_files=params_file_paths(argv))
         executor.add_node(node)
         executor.spin()
     except (KeyboardInterrupt, ExternalShutdownException):
@@ -329,15 +532,39 @@ def main(args: list[str] | None = None) -> int:
     except (ConfigError, ParameterException) as exc:  # out of range, wrong type, inconsistent
         print(f"{NODE_NAME}: refusing to start: {exc}", file=sys.stderr, flush=True)
         code = 2
-    except Exception:
-        # A signal's handler shuts the context down while spin runs; spin may then fail
-        # inside rcl ("failed to initialize wait set: the given context is not valid")
-        # instead of returning. Once the context is down that is the shutdown itself.
-        if rclpy.ok():
-            raise
+    except Exception as exc:
+        _shutdown_race(exc)
     finally:
+        _finish(node, executor)
+    return code
+
+
+def _shutdown_race(exc: Exception) -> None:
+    """Re-raise ``exc`` unless the context is already down.
+
+    A signal's handler shuts the context down from its own thread while the executor runs; a
+    spin that was then building its wait set, taking a message or publishing fails inside rcl
+    ("failed to initialize wait set: the given context is not valid", a RuntimeError in
+    take_message) instead of returning. Once the context is down, that is the shutdown itself.
+    """
+    if rclpy.ok():
+        raise exc
+    print(f"{NODE_NAME}: shutting down ({type(exc).__name__} at shutdown)", file=sys.stderr)
+
+
+def _finish(node: _Predictor | None, executor: SingleThreadedExecutor) -> None:
+    """Stop the worker, finish the recording, release the node, the executor and the context.
+
+    The recording comes first and on its own (``close`` never raises): whatever fails after it
+    while the context is going down must not turn a clean shutdown into exit code 1.
+    """
+    if node is not None:
+        node.close()
+    try:
         if node is not None:
             node.destroy_node()
         executor.shutdown()
+    except Exception as exc:
+        _shutdown_race(exc)
+    finally:
         rclpy.try_shutdown()
-    return code

@@ -73,6 +73,15 @@ def test_table_plain_prints_paper_and_difference(capsys: pytest.CaptureFixture[s
     assert "cells equal to the paper: 121 of 121" in text
 
 
+def test_faces_turned_away_are_invalid_input_with_the_reason(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    assert main(["predict", "--x0", "0", "--theta0", "2.0"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("xface: INVALID_INPUT: |theta0| = 2 rad > pi/2")
+    assert "do not face each other" in err
+
+
 def test_bad_design_is_a_clear_error(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["predict", "--h-over-d", "-1", "--x0", "0", "--theta0", "0"]) == 2
     assert "h_over_d" in capsys.readouterr().err

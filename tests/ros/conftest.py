@@ -24,6 +24,7 @@ import pytest
 import rclpy
 import yaml
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+from diagnostic_msgs.srv import SelfTest
 from geometry_msgs.msg import PoseStamped
 from nav_msgs.msg import Path as PathMsg
 from nav_msgs.srv import GetPlan
@@ -48,6 +49,8 @@ from xface_ros.diagnostics import WARMING_UP_MESSAGE
 ROOT = Path(__file__).resolve().parents[2]
 DEFAULT_PARAMS_FILE = ROOT / "config" / "xface.yaml"
 NODE_NAME = "xface_predictor"
+#: The node's fully qualified name when started without remapping (status names carry it).
+NODE_FQN = f"/{NODE_NAME}"
 BASE_FRAME = "xface_base"
 
 #: Generous: a cold start loads rclpy and Fast DDS, and on a fresh checkout the node compiles
@@ -70,10 +73,11 @@ with warnings.catch_warnings():
     import rosidl_generator_py  # noqa: F401
 
 
-def write_params(path: Path, **overrides: Any) -> Path:
-    """A params file: config/xface.yaml with ``overrides`` applied."""
+def write_params(path: Path, *, key: str = "/**", **overrides: Any) -> Path:
+    """A params file: config/xface.yaml with ``overrides`` applied, under the node key ``key``."""
     data = yaml.safe_load(DEFAULT_PARAMS_FILE.read_text(encoding="utf-8"))
-    data[NODE_NAME]["ros__parameters"].update(overrides)
+    data["/**"]["ros__parameters"].update(overrides)
+    data = {key: data["/**"]}
     path.write_text(yaml.safe_dump(data), encoding="utf-8")
     return path
 
@@ -121,11 +125,17 @@ class NodeProcess:
 
 
 def start_node_process(
-    domain_id: int, params_file: Path, log_path: Path, extra_args: list[str] | None = None
+    domain_id: int,
+    params_file: Path,
+    log_path: Path,
+    extra_args: list[str] | None = None,
+    node_args: list[str] | None = None,
 ) -> NodeProcess:
+    """``extra_args`` go after ``--ros-args``; ``node_args`` (the node's own options, such as
+    ``--lifecycle``) before it."""
     command = [
-        sys.executable, "-m", "xface_ros", "--ros-args", "--params-file", str(params_file),
-        *(extra_args or []),
+        sys.executable, "-m", "xface_ros", *(node_args or []), "--ros-args",
+        "--params-file", str(params_file), *(extra_args or []),
     ]  # fmt: skip
     log = log_path.open("w", encoding="utf-8")
     process = subprocess.Popen(
@@ -186,13 +196,17 @@ class RosClient:
     values = staticmethod(status_values)
     stamp_ns = staticmethod(stamp_ns)
 
-    def __init__(self, domain_id: int) -> None:
+    def __init__(self, domain_id: int, *, node_fqn: str = NODE_FQN) -> None:
+        """``node_fqn``: the node under test; the client joins its namespace, so the node's
+        relative topics and service resolve to the same names on both sides."""
+        self.node_fqn = node_fqn
         self.context = Context()
         rclpy.init(
             context=self.context, domain_id=domain_id,
             signal_handler_options=SignalHandlerOptions.NO,
         )  # fmt: skip
-        self.node = Node("xface_test_client", context=self.context)
+        namespace = node_fqn.rsplit("/", 1)[0] or "/"
+        self.node = Node("xface_test_client", namespace=namespace, context=self.context)
         self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.node)
         latched = QoSProfile(
@@ -212,7 +226,8 @@ class RosClient:
         self.markers: Inbox[MarkerArray] | None = None
         self.diagnostics: Inbox[DiagnosticArray] = self._inbox(DiagnosticArray, "/diagnostics", 10)
         self.plan_client = self.node.create_client(GetPlan, "predict")
-        self.param_client = AsyncParameterClient(self.node, NODE_NAME)
+        self.status_client = self.node.create_client(SelfTest, "predict_status")
+        self.param_client = AsyncParameterClient(self.node, node_fqn)
         self._stamp_ns = 0
         self._thread = threading.Thread(target=self._spin, daemon=True)
         self._thread.start()
@@ -250,7 +265,7 @@ class RosClient:
     def node_warmed_up(self) -> bool:
         """A predictor status on /diagnostics that no longer says "warming up"."""
         return any(
-            status.name == f"{NODE_NAME}: predictor" and status.message != WARMING_UP_MESSAGE
+            status.name == f"{self.node_fqn}: predictor" and status.message != WARMING_UP_MESSAGE
             for array in self.diagnostics.snapshot()
             for status in array.status
         )
@@ -323,6 +338,15 @@ class RosClient:
         future = self.plan_client.call_async(request)
         return _result(future, timeout_s).plan
 
+    def call_status(self, timeout_s: float = REPLY_TIMEOUT_S) -> Any:
+        """``predict_status`` (SelfTest): the latest pose's answer in one call."""
+        return self.call(self.status_client, SelfTest.Request(), timeout_s)
+
+    def call(self, client: Any, request: Any, timeout_s: float = REPLY_TIMEOUT_S) -> Any:
+        """Wait for ``client``'s service, call it and return the response."""
+        assert client.wait_for_service(timeout_sec=timeout_s)
+        return _result(client.call_async(request), timeout_s)
+
     def set_parameters(self, **values: Any) -> list[Any]:
         """SetParameters on the node; the list of SetParametersResult (one per parameter)."""
         assert self.param_client.wait_for_services(timeout_sec=REPLY_TIMEOUT_S)
@@ -372,6 +396,10 @@ class Running:
     domain_id: int
     params_file: Path
 
+    def env(self) -> dict[str, str]:
+        """The environment of a process that talks to this node (same domain, loopback)."""
+        return ros_env(self.domain_id)
+
 
 @pytest.fixture
 def launch(ros_domain_id: int, tmp_path: Path) -> Iterator[Callable[..., Running]]:
@@ -384,13 +412,21 @@ def launch(ros_domain_id: int, tmp_path: Path) -> Iterator[Callable[..., Running
     clients: list[RosClient] = []
 
     def _launch(
-        *, wait: bool = True, extra_args: list[str] | None = None, **overrides: Any
+        *,
+        wait: bool = True,
+        extra_args: list[str] | None = None,
+        node_args: list[str] | None = None,
+        node_fqn: str = NODE_FQN,
+        params_key: str = "/**",
+        **overrides: Any,
     ) -> Running:
         n = len(nodes)
-        params = write_params(tmp_path / f"params{n}.yaml", **overrides)
-        node = start_node_process(ros_domain_id, params, tmp_path / f"node{n}.log", extra_args)
+        params = write_params(tmp_path / f"params{n}.yaml", key=params_key, **overrides)
+        node = start_node_process(
+            ros_domain_id, params, tmp_path / f"node{n}.log", extra_args, node_args
+        )
         nodes.append(node)  # before anything else can fail: teardown always stops it
-        client = RosClient(ros_domain_id)
+        client = RosClient(ros_domain_id, node_fqn=node_fqn)
         clients.append(client)
         if wait:
             client.wait_for_node(node)

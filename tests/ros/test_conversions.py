@@ -34,6 +34,7 @@ from xface_ros.conversions import (
     pose_input,
     prediction_status,
     seated_pose_msg,
+    self_test_response,
     stamp_to_ns,
 )
 from xface_ros.decision import (
@@ -47,6 +48,7 @@ from xface_ros.decision import (
 from xface_ros.params import SPECS, NodeConfig, config_from_values
 
 NOW_NS = 1_700_000_000_000_000_000
+NAME = "/xface_predictor: prediction"
 
 
 @pytest.fixture(scope="module")
@@ -90,11 +92,28 @@ def test_good_pose_converts_like_the_frames_module(config: NodeConfig) -> None:
 
 @pytest.mark.parametrize("code", sorted(INPUT_ERRORS))
 def test_each_input_error_gives_an_error_status(code: str) -> None:
-    status = input_error_status(Rejected(NOW_NS, code, "why"), hardware_id="xface_base")
+    status = input_error_status(Rejected(NOW_NS, code, "why"), name=NAME, hardware_id="xface_base")
     assert status.level == DiagnosticStatus.ERROR
     assert values(status)["input_error"] == code
     assert values(status)["input_stamp_ns"] == str(NOW_NS)
     assert status.message == f"INVALID_INPUT: {code}: why"
+
+
+def test_status_answer_says_passed_and_why(seated_verdict: Predicted) -> None:
+    response = self_test_response(
+        seated_verdict, node_fqn="/xface_predictor", name=NAME, hardware_id="xface_base"
+    )
+    assert response.passed == b"\x01"
+    assert values(response.status[0])["answer"] == "seats"
+    assert response.status[0].message.startswith("SEATED: ")
+
+
+def test_no_seat_is_stated_with_an_empty_frame_and_nan() -> None:
+    msg = seated_pose_msg(None, Header(stamp=ns_to_stamp(NOW_NS), frame_id="xface_base"))
+    assert msg.header.frame_id == ""
+    assert stamp_to_ns(msg.header.stamp) == NOW_NS
+    assert math.isnan(msg.pose.position.x)
+    assert math.isnan(msg.pose.position.y)
 
 
 def test_key_values_parse_back_exactly() -> None:
@@ -123,6 +142,11 @@ def seated(config: NodeConfig) -> Prediction:
     return prediction
 
 
+@pytest.fixture(scope="module")
+def seated_verdict(seated: Prediction) -> Predicted:
+    return predicted(seated)
+
+
 def test_status_levels_follow_the_decision(seated: Prediction) -> None:
     levels = {}
     for outcome, required in [
@@ -132,7 +156,9 @@ def test_status_levels_follow_the_decision(seated: Prediction) -> None:
         (Outcome.INVALID_INPUT, 0.0),
     ]:
         p = replace(seated, outcome=outcome, margins=Margins(0.01, 0.01, 0.1, 0.1))
-        status = prediction_status(predicted(p, required_m=required), hardware_id="xface_base")
+        status = prediction_status(
+            predicted(p, required_m=required), name=NAME, hardware_id="xface_base"
+        )
         levels[(outcome, required)] = status.level
     assert levels == {
         (Outcome.SEATED, 0.0): DiagnosticStatus.OK,
@@ -144,9 +170,10 @@ def test_status_levels_follow_the_decision(seated: Prediction) -> None:
 
 def test_status_values_carry_the_prediction_exactly(seated: Prediction) -> None:
     status = prediction_status(
-        predicted(seated, stamp_ns=NOW_NS + 7, compute_s=0.002), hardware_id="xface_base"
+        predicted(seated, stamp_ns=NOW_NS + 7, compute_s=0.002), name=NAME, hardware_id="xface_base"
     )
     v = values(status)
+    assert status.name == NAME
     assert status.message.startswith("SEATED: ")
     assert v["outcome_code"] == str(int(Outcome.SEATED))
     assert float(v["final_phi_b_rad"]) == seated.phi_b

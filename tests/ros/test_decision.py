@@ -32,6 +32,7 @@ from xface_core.predict import predict
 from xface_core.result import Counters, Margins, Prediction
 from xface_ros.config import SPECS, NodeConfig, config_from_values
 from xface_ros.decision import (
+    ANSWERS,
     INPUT_ERRORS,
     InputRejected,
     PoseInput,
@@ -40,6 +41,7 @@ from xface_ros.decision import (
     Rejected,
     StatsCounts,
     StatsWindow,
+    answer,
     check_pose,
     combined_margin,
     decide,
@@ -103,6 +105,8 @@ def bad_inputs() -> list[tuple[str, dict[str, Any]]]:
         ("non_planar", {"quaternion": (s, 0.0, 0.0, math.cos(0.2))}),  # roll 0.4 rad
         ("absurd_distance", {"x": 60.0}),  # 1200 widths of 5 cm
         ("absurd_distance", {"y": -51.0}),
+        ("not_facing", {"quaternion": (0.0, 0.0, 0.0, 1.0)}),  # identity: back to back
+        ("not_facing", {"yaw": math.pi / 2 - 0.01}),  # theta0 just past -pi/2
     ]
 
 
@@ -120,6 +124,25 @@ def test_each_bad_input_is_rejected_with_its_code(
     assert not verdict.accepted
 
 
+def test_a_leading_slash_names_the_same_frame(config: NodeConfig) -> None:
+    assert check_pose(pose(frame="/xface_base"), config, now_ns=NOW_NS).x0 == 0.01
+
+
+def test_a_zero_stamp_is_called_a_zero_stamp(config: NodeConfig) -> None:
+    with pytest.raises(InputRejected, match="stale_stamp: zero stamp"):
+        check_pose(pose(stamp_ns=0), config, now_ns=NOW_NS)
+
+
+def test_an_old_stamp_suggests_clock_skew(config: NodeConfig) -> None:
+    with pytest.raises(InputRejected, match=r"stale_stamp: pose is 2\.000 s old.*clock skew"):
+        check_pose(pose(stamp_ns=NOW_NS - 2_000_000_000), config, now_ns=NOW_NS)
+
+
+def test_a_future_stamp_is_called_clock_skew(config: NodeConfig) -> None:
+    with pytest.raises(InputRejected, match=r"future_stamp: clock skew: the stamp is 2\.000 s"):
+        check_pose(pose(stamp_ns=NOW_NS + 2_000_000_000), config, now_ns=NOW_NS)
+
+
 def test_checks_run_in_the_documented_order(config: NodeConfig) -> None:
     # Wrong frame before non-finite before stale before the quaternion.
     everything_wrong = pose(math.nan, frame="map", stamp_ns=0, quaternion=(0.0, 0.0, 0.0, 0.0))
@@ -127,6 +150,10 @@ def test_checks_run_in_the_documented_order(config: NodeConfig) -> None:
         check_pose(everything_wrong, config, now_ns=NOW_NS)
     with pytest.raises(InputRejected, match="non_finite"):
         check_pose(replace(everything_wrong, frame_id="xface_base"), config, now_ns=NOW_NS)
+
+
+def test_faces_at_a_right_angle_still_face_each_other(config: NodeConfig) -> None:
+    assert check_pose(pose(yaw=math.pi / 2 + 0.01), config, now_ns=NOW_NS).theta0 < 0.0
 
 
 def test_no_clock_skips_the_stamp_check(config: NodeConfig) -> None:
@@ -181,8 +208,15 @@ def test_query_tolerance_replaces_min_margin_only_when_positive(config: NodeConf
     strict = replace(config, min_margin=0.003)
     assert required_margin_m(0.002, strict) == 0.002
     assert required_margin_m(0.0, strict) == 0.003
-    assert required_margin_m(math.nan, strict) == 0.003
-    assert required_margin_m(-1.0, config) == 0.0
+
+
+@pytest.mark.parametrize("tolerance_m", [-0.001, math.nan, math.inf])
+def test_query_with_a_bad_tolerance_is_rejected(config: NodeConfig, tolerance_m: float) -> None:
+    start = at_start(0.0, 0.0)
+    verdict = evaluate_query(start, None, config, tolerance_m=tolerance_m, now_ns=NOW_NS)
+    assert isinstance(verdict, Rejected)
+    assert verdict.code == "bad_tolerance"
+    assert repr(tolerance_m) in verdict.detail
 
 
 # --- verdicts -------------------------------------------------------------------------------
@@ -291,6 +325,30 @@ def test_query_tolerance_is_the_required_combined_margin(config: NodeConfig) -> 
     assert not double.accepted
 
 
+def query_answer(config: NodeConfig, latest: PoseInput | None, *, required_m: float) -> str:
+    """The answer to "the latest pose, with this margin required"."""
+    empty = pose(frame="")
+    return answer(evaluate_query(empty, latest, config, tolerance_m=required_m, now_ns=NOW_NS))
+
+
+@pytest.mark.parametrize(
+    ("expected", "latest", "required_m"),
+    [
+        ("no_pose", None, 0.0),
+        ("stale", at_start(0.0, 0.0, stamp_ns=NOW_NS - 2_000_000_000), 0.0),
+        ("invalid", pose(quaternion=(0.0, 0.0, 0.0, 1.0)), 0.0),
+        ("will_not_seat", at_start(0.9, 0.8), 0.0),
+        ("seats_without_margin", at_start(0.0, 0.0), 1.0),  # no seat has 1 m of margin
+        ("seats", at_start(0.0, 0.0), 0.0),
+    ],
+)
+def test_each_answer_of_a_query(
+    config: NodeConfig, expected: str, latest: PoseInput | None, required_m: float
+) -> None:
+    assert expected in ANSWERS
+    assert query_answer(config, latest, required_m=required_m) == expected
+
+
 # --- stats ----------------------------------------------------------------------------------
 
 
@@ -306,7 +364,7 @@ def test_stats_count_predictions_errors_and_windows(config: NodeConfig) -> None:
     stats.count_verdict(Rejected(NOW_NS + 1, "non_planar", "tilted"), latency_ms=1.0)
     stats.count_service_call()
     stats.count_recording_error()
-    stats.set_dds_lost_total(3)
+    stats.set_dds_lost_reported_total(3)
     snap = stats.take_snapshot(2_000_000_000, received_total=2, dropped_total=0)
     assert snap.window == StatsWindow(
         received=2, predicted=1, latency_ms=[2.0], compute_ms=[seated.compute_s * 1e3]
@@ -316,7 +374,7 @@ def test_stats_count_predictions_errors_and_windows(config: NodeConfig) -> None:
     # The last verdict was the rejection: it sets the last outcome and error; the latency
     # is that of the last prediction.
     assert snap.counts == StatsCounts(
-        warming_up=False, predicted_total=1, input_errors_total=1, dds_lost_total=3,
+        warming_up=False, predicted_total=1, input_errors_total=1, dds_lost_reported_total=3,
         service_calls_total=1, recording_errors_total=1, last_outcome="INVALID_INPUT",
         last_accepted=None, last_input_error="non_planar", last_latency_ms=2.0,
         last_stamp_ns=NOW_NS + 1,

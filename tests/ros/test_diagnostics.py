@@ -32,10 +32,10 @@ NOW_NS = 1_700_000_000_000_000_000
 #: The keys docs/ros.md lists for the predictor status, in order.
 DOCUMENTED_KEYS = [
     "input_rate_hz", "prediction_rate_hz", "pose_age_s", "received_total", "predicted_total",
-    "dropped_total", "dds_lost_total", "input_errors_total", "service_calls_total",
-    "recording_errors_total", "last_outcome", "last_accepted", "last_input_error",
-    "last_latency_ms", "latency_ms_median", "latency_ms_max", "compute_ms_median", "face",
-    "width_m", "h_over_d", "r_p", "damping_ratio", "recording",
+    "dropped_total", "dds_lost_reported_total", "dds_lost_total", "input_errors_total",
+    "service_calls_total", "recording_errors_total", "last_outcome", "last_accepted",
+    "last_input_error", "last_latency_ms", "latency_ms_median", "latency_ms_max",
+    "compute_ms_median", "face", "width_m", "h_over_d", "r_p", "damping_ratio", "recording",
 ]  # fmt: skip
 
 

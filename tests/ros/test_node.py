@@ -125,6 +125,19 @@ def test_streamed_prediction_equals_the_core(
     assert {b.data for b in new_bools} == {expected.seated}
 
 
+def test_seated_pose_is_replaced_by_a_later_failure(shared_node: Any) -> None:
+    c = shared_node.client
+    seats, _ = stream_pose(shared_node, 0.0, 0.0)
+    seat = c.seated.wait_for(lambda p: c.stamp_ns(p.header.stamp) == c.stamp_ns(seats.header.stamp))
+    assert seat.header.frame_id == "xface_base"
+    fails, _ = stream_pose(shared_node, 2.5, 0.0)  # out of reach
+    no_seat = c.seated.wait_for(
+        lambda p: c.stamp_ns(p.header.stamp) == c.stamp_ns(fails.header.stamp)
+    )
+    assert no_seat.header.frame_id == ""
+    assert math.isnan(no_seat.pose.position.x)
+
+
 def test_markers_show_the_prediction_when_subscribed(shared_node: Any) -> None:
     c = shared_node.client
     markers = c.subscribe_markers()
@@ -223,6 +236,7 @@ def bad_messages() -> list[tuple[str, Any]]:
         ("non_planar", lambda c: at(c, quaternion=tilted)),
         ("absurd_distance", lambda c: at(c, x=100.0)),  # 2000 widths
         ("invalid_input", lambda c: at(c, y=0.0)),  # the parts interpenetrate
+        ("not_facing", lambda c: at(c, quaternion=(0.0, 0.0, 0.0, 1.0))),  # back to back
     ]
 
 
@@ -252,11 +266,11 @@ def test_diagnostics_report_rate_age_outcome_latency_and_drops(shared_node: Any)
 
     def recent_predictor_status(array: Any) -> bool:
         return c.stamp_ns(array.header.stamp) > since and any(
-            s.name == "xface_predictor: predictor" for s in array.status
+            s.name == "/xface_predictor: predictor" for s in array.status
         )
 
     array = c.diagnostics.wait_for(recent_predictor_status, timeout_s=10.0)
-    status = next(s for s in array.status if s.name == "xface_predictor: predictor")
+    status = next(s for s in array.status if s.name == "/xface_predictor: predictor")
     v = c.values(status)
     for key in (
         "input_rate_hz", "pose_age_s", "last_outcome", "latency_ms_median", "dropped_total",

@@ -12,6 +12,7 @@ from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.parameter import Parameter
 
 from xface_core.geometry import make_face
+from xface_ros.config import normalise_frame_id, params_file_applied, params_file_paths
 from xface_ros.params import (
     DESIGN_PARAMETERS,
     SPECS,
@@ -58,7 +59,7 @@ def test_recording_and_diagnostics_period_are_read_only() -> None:
 
 def test_params_file_repeats_the_built_in_defaults() -> None:
     data = yaml.safe_load((ROOT / "config" / "xface.yaml").read_text(encoding="utf-8"))
-    from_file = data["xface_predictor"]["ros__parameters"]
+    from_file = data["/**"]["ros__parameters"]
     assert from_file == defaults()
 
 
@@ -82,7 +83,7 @@ def test_defaults_build_the_x_face_in_metres() -> None:
         ("input_timeout_s", -0.1, "input_timeout_s"),
         ("max_path_poses", 1, "max_path_poses"),
         ("base_frame", "", "base_frame"),
-        ("base_frame", "/xface_base", "base_frame"),
+        ("base_frame", "/", "base_frame"),
         ("base_frame", "two words", "base_frame"),
         ("width_m", "wide", "width_m must be a float"),
         ("record", 1, "record must be a bool"),
@@ -102,6 +103,12 @@ def test_negative_friction_is_refused_with_the_cores_reason() -> None:
 
 def test_friction_is_passed_to_the_simulator() -> None:
     assert config_from_values({**defaults(), "friction": 0.3}).friction == 0.3
+
+
+def test_base_frame_loses_its_leading_slash() -> None:
+    assert (
+        config_from_values({**defaults(), "base_frame": "/xface_base"}).base_frame == "xface_base"
+    )
 
 
 def test_face_letter_is_case_insensitive() -> None:
@@ -160,3 +167,21 @@ def test_docs_list_every_parameter_with_its_default() -> None:
         else:
             text = repr(default)
         assert f"`{text}`" in rows[spec.name], (spec.name, text)
+
+
+def test_params_files_are_read_from_the_ros_arguments_only() -> None:
+    argv = ["prog", "--params-file", "not_ros.yaml", "--ros-args", "-r", "__ns:=/left",
+            "--params-file", "a.yaml", "--", "--ros-args", "--params-file", "b.yaml"]  # fmt: skip
+    assert params_file_paths(argv) == ["a.yaml", "b.yaml"]
+
+
+def test_a_params_file_applies_when_one_of_its_values_reached_the_node() -> None:
+    assert params_file_applied({"width_m": 0.08, "face": "V"}, {"face": "V"})
+
+
+def test_a_params_file_keyed_for_another_node_applies_nothing() -> None:
+    assert not params_file_applied({"width_m": 0.08}, {})
+
+
+def test_frame_ids_compare_without_their_leading_slash() -> None:
+    assert normalise_frame_id("/xface_base") == normalise_frame_id("xface_base") == "xface_base"

@@ -1,0 +1,41 @@
+"""docs/ros.md's Python examples work when pasted: run against a node, they print answers."""
+
+from __future__ import annotations
+
+import re
+import subprocess
+import sys
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from xface_ros.decision import ANSWERS
+
+pytestmark = pytest.mark.ros
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def example_blocks() -> list[str]:
+    """The ```python blocks of the Examples section, in order (they build on each other)."""
+    text = (ROOT / "docs" / "ros.md").read_text(encoding="utf-8")
+    section = text.split("\n## Examples\n", 1)[1].split("\n## ", 1)[0]
+    return re.findall(r"```python\n(.*?)```", section, flags=re.DOTALL)
+
+
+def test_examples_print_a_prediction_a_plan_and_its_reason(launch: Any) -> None:
+    running = launch(wait=False)  # pasted right after starting the node, as a user would
+    blocks = example_blocks()
+    assert len(blocks) == 2
+    run = subprocess.run(
+        [sys.executable, "-c", "\n".join(blocks)],
+        env=running.env(), capture_output=True, text=True, timeout=600, check=False,
+    )  # fmt: skip
+    assert run.returncode == 0, run.stdout + run.stderr + running.node.log()
+    first, plan, why = run.stdout.strip().splitlines()[-3:]
+    assert first.startswith("b'\\x00' SEATED: ")
+    assert plan in ("accepted", "rejected")
+    # Normally "seats"; "stale" only if this loaded machine took longer than input_timeout_s
+    # between the pose's answer and the call.
+    assert why.split()[0] in ANSWERS

@@ -1,0 +1,84 @@
+"""``--lifecycle``: the managed node, driven through the standard lifecycle services.
+
+A node started with ``python -m xface_ros --lifecycle`` goes through configure, activate,
+deactivate, cleanup and shutdown by ``/xface_predictor/change_state`` and reports each state on
+``/xface_predictor/get_state``; its services answer only while it is active.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from typing import Any
+
+import pytest
+from lifecycle_msgs.msg import State, Transition
+from lifecycle_msgs.srv import ChangeState, GetState
+
+pytestmark = pytest.mark.ros
+
+WIDTH = 0.05
+#: Configure warms the simulator up (a fresh checkout compiles it): generous.
+CONFIGURE_TIMEOUT_S = 300.0
+GRAPH_TIMEOUT_S = 60.0
+
+
+class Manager:
+    """A lifecycle manager for the node under test (the test client's node makes the calls)."""
+
+    def __init__(self, client: Any) -> None:
+        self.client = client
+        self.change = client.node.create_client(ChangeState, "/xface_predictor/change_state")
+        self.get = client.node.create_client(GetState, "/xface_predictor/get_state")
+
+    def transition(self, transition_id: int) -> bool:
+        request = ChangeState.Request(transition=Transition(id=transition_id))
+        return bool(self.client.call(self.change, request, CONFIGURE_TIMEOUT_S).success)
+
+    def state(self) -> int:
+        return int(self.client.call(self.get, GetState.Request()).current_state.id)
+
+
+def wait_until(condition: Any, timeout_s: float = GRAPH_TIMEOUT_S) -> None:
+    deadline = time.monotonic() + timeout_s
+    while not condition():
+        assert time.monotonic() < deadline, "condition not met in time"
+        time.sleep(0.05)
+
+
+@pytest.fixture
+def managed(launch: Any) -> tuple[Any, Manager]:
+    running = launch(wait=False, node_args=["--lifecycle"], compute_margins=False)
+    return running, Manager(running.client)
+
+
+def test_goes_through_every_transition_with_the_standard_services(
+    managed: tuple[Any, Manager],
+) -> None:
+    _running, manager = managed
+    assert manager.state() == State.PRIMARY_STATE_UNCONFIGURED
+    steps = [
+        (Transition.TRANSITION_CONFIGURE, State.PRIMARY_STATE_INACTIVE),
+        (Transition.TRANSITION_ACTIVATE, State.PRIMARY_STATE_ACTIVE),
+        (Transition.TRANSITION_DEACTIVATE, State.PRIMARY_STATE_INACTIVE),
+        (Transition.TRANSITION_CLEANUP, State.PRIMARY_STATE_UNCONFIGURED),
+        (Transition.TRANSITION_UNCONFIGURED_SHUTDOWN, State.PRIMARY_STATE_FINALIZED),
+    ]
+    for transition_id, expected_state in steps:
+        assert manager.transition(transition_id), transition_id
+        assert manager.state() == expected_state
+
+
+def test_answers_only_while_active(managed: tuple[Any, Manager]) -> None:
+    running, manager = managed
+    c = running.client
+    assert manager.transition(Transition.TRANSITION_CONFIGURE)
+    # Configured but inactive: no service to call, no prediction for a streamed pose.
+    assert not c.status_client.service_is_ready()
+    assert manager.transition(Transition.TRANSITION_ACTIVATE)
+    assert c.call_status().status[0].message.startswith("INVALID_INPUT: no_pose")
+    _sent, status = c.publish_until_status(lambda: c.pose_msg(0.0, 3 * WIDTH, math.pi))
+    assert status.message.startswith("SEATED: ")
+    assert manager.transition(Transition.TRANSITION_DEACTIVATE)
+    wait_until(lambda: not c.status_client.service_is_ready())
+    wait_until(lambda: c.pose_pub.get_subscription_count() == 0)
