@@ -19,7 +19,8 @@ Examples
 from __future__ import annotations
 
 from .codes import Outcome, Reason
-from .errors import GeometryError, InputError, XfaceError, XfaceValueError
+from .errors import FaceFileError, GeometryError, InputError, XfaceError, XfaceValueError
+from .facefile import load_face, save_face
 from .geometry import FaceDesign, custom_face, make_face, s_face, v_face, x_face
 from .grids import PAPER_H_OVER_D, PAPER_R_P, theta_grid, x0_grid
 from .margins import outcome_margins
@@ -39,6 +40,7 @@ __all__ = [
     "BatchResult",
     "Counters",
     "FaceDesign",
+    "FaceFileError",
     "GeometryError",
     "InputError",
     "MTable",
@@ -55,12 +57,14 @@ __all__ = [
     "custom_face",
     "largest_centred_rectangle",
     "largest_rectangle",
+    "load_face",
     "m_table",
     "make_face",
     "outcome_margins",
     "predict",
     "predict_batch",
     "s_face",
+    "save_face",
     "theta_grid",
     "v_face",
     "x0_grid",

@@ -6,7 +6,7 @@ Every exception derives from :class:`XfaceError`; the value errors also derive f
 
 from __future__ import annotations
 
-__all__ = ["GeometryError", "InputError", "XfaceError", "XfaceValueError"]
+__all__ = ["FaceFileError", "GeometryError", "InputError", "XfaceError", "XfaceValueError"]
 
 
 class XfaceError(Exception):
@@ -19,6 +19,10 @@ class XfaceValueError(XfaceError, ValueError):
 
 class GeometryError(XfaceValueError):
     """A face design cannot exist: invalid polygons, overlapping mated parts, bad layers."""
+
+
+class FaceFileError(GeometryError):
+    """A face file cannot be read or does not follow the format (:mod:`xface_core.facefile`)."""
 
 
 class InputError(XfaceValueError):

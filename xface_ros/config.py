@@ -19,11 +19,13 @@ from pathlib import Path
 from typing import Any
 
 from xface_core.errors import XfaceError
+from xface_core.facefile import load_face
 from xface_core.frames import DEFAULT_MAX_DISTANCE_WIDTHS, DEFAULT_MAX_TILT_RAD
 from xface_core.geometry import FaceDesign, make_face
 from xface_core.physics import Physics
 
 __all__ = [
+    "CUSTOM_FACE",
     "DESIGN_PARAMETERS",
     "SPECS",
     "SPEC_BY_NAME",
@@ -62,8 +64,17 @@ SPECS: tuple[ParamSpec, ...] = (
     ParamSpec(
         "face",
         "X",
-        "Connector face: X (two-layer X-Face), V (gendered V-Face) or S (S-Face).",
-        constraints="one of X, V, S (case-insensitive)",
+        "Connector face: X (two-layer X-Face), V (gendered V-Face), S (S-Face), or custom "
+        "(the design in face_file).",
+        constraints="one of X, V, S, custom (case-insensitive)",
+    ),
+    ParamSpec(
+        "face_file",
+        "",
+        "Face file (YAML, docs/facefile.md) read when face is custom: the connector's "
+        "polygons, mated distance and its width D in metres (width_m, h_over_d and r_p do "
+        "not apply then).",
+        constraints="a readable face file when face is custom",
     ),
     ParamSpec(
         "width_m",
@@ -175,7 +186,12 @@ SPECS: tuple[ParamSpec, ...] = (
 SPEC_BY_NAME: dict[str, ParamSpec] = {spec.name: spec for spec in SPECS}
 
 #: Parameters that change the simulated connector (the design is rebuilt from them).
-DESIGN_PARAMETERS = frozenset({"face", "width_m", "h_over_d", "r_p", "damping_ratio", "friction"})
+DESIGN_PARAMETERS = frozenset(
+    {"face", "face_file", "width_m", "h_over_d", "r_p", "damping_ratio", "friction"}
+)
+
+#: The ``face`` value that takes the design from ``face_file``.
+CUSTOM_FACE = "custom"
 
 
 @dataclass(frozen=True)
@@ -188,7 +204,9 @@ class NodeConfig:
     """
 
     face: str
+    face_file: str
     width_m: float
+    """The face width D (m): the face file's for a custom face."""
     h_over_d: float
     r_p: float
     base_frame: str
@@ -263,8 +281,10 @@ def _check_types_and_ranges(values: Mapping[str, Any]) -> None:
 
 def _face_letter(value: Any) -> str:
     face = str(value).strip().upper()
+    if face == CUSTOM_FACE.upper():
+        return CUSTOM_FACE
     if face not in ("X", "V", "S"):
-        raise ConfigError(f"face must be one of X, V, S; got {value!r}")
+        raise ConfigError(f"face must be one of X, V, S, custom; got {value!r}")
     return face
 
 
@@ -287,6 +307,14 @@ def _base_frame(value: Any) -> str:
 
 def _design(face: str, values: Mapping[str, Any]) -> FaceDesign:
     """The connector in metres, or the core's reason why it cannot exist."""
+    if face == CUSTOM_FACE:
+        path = str(values["face_file"])
+        if not path:
+            raise ConfigError("face custom needs face_file: the path of a face file")
+        try:
+            return load_face(path)
+        except XfaceError as exc:
+            raise ConfigError(f"face_file: {exc}") from exc
     try:
         return make_face(
             face, float(values["h_over_d"]), float(values["r_p"]), width=float(values["width_m"])
@@ -328,7 +356,8 @@ def config_from_values(values: Mapping[str, Any]) -> NodeConfig:
     record_path = _record_path(values["record_path"])
     return NodeConfig(
         face=face,
-        width_m=float(values["width_m"]),
+        face_file=str(values["face_file"]),
+        width_m=design.width,
         h_over_d=float(values["h_over_d"]),
         r_p=float(values["r_p"]),
         base_frame=base_frame,

@@ -54,7 +54,7 @@ from std_msgs.msg import Bool, Header
 from visualization_msgs.msg import MarkerArray
 
 from xface_ros import worker as worker_module
-from xface_ros.config import params_file_applied, params_file_paths
+from xface_ros.config import CUSTOM_FACE, params_file_applied, params_file_paths
 from xface_ros.conversions import (
     markers_msg,
     ns_to_stamp,
@@ -234,6 +234,11 @@ class _Predictor(Node):
 
     @staticmethod
     def _describe(config: NodeConfig) -> str:
+        if config.face == CUSTOM_FACE:
+            return (
+                f"custom face {config.face_file} D={config.width_m:g} m "
+                f"c_B/c_M={config.damping_ratio:g} friction={config.friction:g}"
+            )
         return (
             f"{config.face}-Face D={config.width_m:g} m H/D={config.h_over_d:g} "
             f"r_p={config.r_p:g} c_B/c_M={config.damping_ratio:g} friction={config.friction:g}"

@@ -11,6 +11,7 @@ import yaml
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.parameter import Parameter
 
+from xface_core.facefile import save_face
 from xface_core.geometry import make_face
 from xface_ros.config import normalise_frame_id, params_file_applied, params_file_paths
 from xface_ros.params import (
@@ -185,3 +186,17 @@ def test_a_params_file_keyed_for_another_node_applies_nothing() -> None:
 
 def test_frame_ids_compare_without_their_leading_slash() -> None:
     assert normalise_frame_id("/xface_base") == normalise_frame_id("xface_base") == "xface_base"
+
+
+def test_a_custom_face_needs_a_face_file() -> None:
+    with pytest.raises(ConfigError, match="face custom needs face_file"):
+        config_from_values({**defaults(), "face": "custom"})
+
+
+def test_a_custom_face_takes_its_design_and_width_from_the_file(tmp_path: Path) -> None:
+    design = make_face("V", 0.5, 1.0, width=0.08)
+    path = save_face(design, tmp_path / "v.yaml")
+    config = config_from_values({**defaults(), "face": "Custom", "face_file": str(path)})
+    assert config.face == "custom"
+    assert config.width_m == 0.08
+    assert config.design.mated_distance == design.mated_distance
