@@ -56,6 +56,9 @@ __all__ = [
 #: Largest pose grid of a study (nodes per axis): 1001 x 1001 is 1e6 runs per design.
 MAX_STUDY_GRID = 1001
 
+#: Most local worker processes (beyond one machine's cores, use a cluster).
+MAX_LOCAL_WORKERS = 1024
+
 
 @dataclass(frozen=True)
 class DesignJob:
@@ -171,6 +174,8 @@ def run_study(
     theta_grid(grid, theta_kind)  # validates the grid size and kind
     if grid > MAX_STUDY_GRID:
         raise XfaceValueError(f"grid must be <= {MAX_STUDY_GRID} nodes per axis, got {grid}")
+    if workers is not None and not 1 <= workers <= MAX_LOCAL_WORKERS:
+        raise XfaceValueError(f"workers must be in [1, {MAX_LOCAL_WORKERS}], got {workers}")
     points = space.points()
     designs = [space.design(p) for p in points]
     study = StudyFile(out, study_settings(grid, theta_kind, settings))

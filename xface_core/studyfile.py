@@ -28,11 +28,12 @@ from typing import Any
 
 from .codes import Outcome
 from .designspace import DesignPoint
-from .errors import XfaceValueError
+from .errors import XfaceError, XfaceValueError
 from .physics import SolverSettings
 
 __all__ = [
     "KEY_COLUMNS",
+    "STUDY_HINT",
     "TIMING_COLUMNS",
     "StudyFile",
     "outcome_column",
@@ -49,6 +50,17 @@ TIMING_COLUMNS = ("seconds",)
 FORMAT = 1
 
 _META_KEY = b"xface.study"
+
+#: What to install for studies.
+STUDY_HINT = "pip install 'xface[study]'"
+
+
+def require_pyarrow() -> None:
+    """Raise :class:`~xface_core.errors.XfaceError` naming the extra if pyarrow is missing."""
+    try:
+        import pyarrow.parquet  # noqa: F401
+    except ImportError:
+        raise XfaceError(f"design studies need the study extra (pyarrow): {STUDY_HINT}") from None
 
 
 def outcome_column(outcome: Outcome) -> str:
@@ -98,22 +110,23 @@ class StudyFile:
     """
 
     def __init__(self, path: str | os.PathLike[str], settings: Mapping[str, Any]) -> None:
+        require_pyarrow()
         self.path = Path(path)
         self.parts = self.path.with_name(self.path.name + ".parts")
         self.settings = dict(settings)
         self._schema = _schema(self.settings)
         if self.path.is_dir():
             raise XfaceValueError(f"cannot write the study to {self.path}: it is a directory")
+        self._check_existing()  # before creating anything
         try:
             self.parts.mkdir(parents=False, exist_ok=True)
+            for stale in self.parts.glob("*.tmp"):
+                stale.unlink()  # a part whose writer was killed before its rename
         except OSError as exc:
             raise XfaceValueError(f"cannot write the study to {self.path}: {exc}") from None
-        for stale in self.parts.glob("*.tmp"):
-            stale.unlink()  # a part whose writer was killed before its rename
-        self._check_existing()
 
     def _files(self) -> list[Path]:
-        files = sorted(self.parts.glob("*.parquet"))
+        files = sorted(self.parts.glob("*.parquet")) if self.parts.is_dir() else []
         return [self.path, *files] if self.path.exists() else files
 
     def _check_existing(self) -> None:
