@@ -60,43 +60,45 @@ def uninterrupted(tmp_path_factory: pytest.TempPathFactory) -> object:
     return read_study(out, timing=False)
 
 
-def _resume(out: Path, capsys: pytest.CaptureFixture[str]) -> dict[str, int]:
+def _started_sweep(out: Path) -> subprocess.Popen[str]:
+    """The sweep in a subprocess, once its first three rows are on disk."""
+    proc = _sweep_process(out)
+    _wait_for_rows(proc, out, 3)
+    return proc
+
+
+def _assert_resumes(out: Path, uninterrupted: object, capsys: pytest.CaptureFixture[str]) -> None:
+    """Running the sweep again computes exactly the designs not on disk and gives the table
+    of an uninterrupted run."""
+    written = read_study(out).num_rows
+    assert 3 <= written < N_DESIGNS  # stopped midway
     assert main([*SWEEP, "--workers", "2", "--out", str(out)]) == 0
-    summary: dict[str, int] = json.loads(capsys.readouterr().out)
-    return summary
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["skipped"] == written
+    assert summary["computed"] == N_DESIGNS - written  # no written design computed again
+    assert read_study(out, timing=False).equals(uninterrupted)
 
 
 def test_a_killed_sweep_resumes_and_computes_only_what_is_missing(
     tmp_path: Path, uninterrupted: object, capsys: pytest.CaptureFixture[str]
 ) -> None:
     out = tmp_path / "study.parquet"
-    proc = _sweep_process(out)
-    _wait_for_rows(proc, out, 3)
+    proc = _started_sweep(out)
     os.killpg(proc.pid, signal.SIGKILL)  # the sweep and its workers, nothing written after
     proc.communicate()
-    written = read_study(out).num_rows
-    assert 3 <= written < N_DESIGNS  # killed midway
-    summary = _resume(out, capsys)
-    assert summary["skipped"] == written
-    assert summary["computed"] == N_DESIGNS - written  # no written design computed again
-    assert read_study(out, timing=False).equals(uninterrupted)
+    _assert_resumes(out, uninterrupted, capsys)
 
 
 def test_a_terminated_sweep_writes_what_was_running_and_resumes(
     tmp_path: Path, uninterrupted: object, capsys: pytest.CaptureFixture[str]
 ) -> None:
     out = tmp_path / "study.parquet"
-    proc = _sweep_process(out)
-    _wait_for_rows(proc, out, 3)
+    proc = _started_sweep(out)
     proc.send_signal(signal.SIGTERM)
     _, stderr = proc.communicate(timeout=120)
     assert proc.returncode == 130, stderr
     assert "run the same command again to resume" in stderr
-    written = read_study(out).num_rows
-    assert written < N_DESIGNS
-    summary = _resume(out, capsys)
-    assert (summary["skipped"], summary["computed"]) == (written, N_DESIGNS - written)
-    assert read_study(out, timing=False).equals(uninterrupted)
+    _assert_resumes(out, uninterrupted, capsys)
 
 
 @pytest.mark.parametrize(
