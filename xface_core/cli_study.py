@@ -39,8 +39,7 @@ class ProgressBar:
     def __call__(self, p: StudyProgress) -> None:
         width = 30
         filled = width if p.total == 0 else width * p.done // p.total
-        left = p.elapsed / p.done * (p.total - p.done) if p.done else float("nan")
-        eta = "" if left != left else f", about {left:.0f} s left"
+        eta = f", about {p.elapsed / p.done * (p.total - p.done):.0f} s left" if p.done else ""
         self.stream.write(
             f"\r{self.label} [{'#' * filled}{'.' * (width - filled)}] {p.done}/{p.total} designs"
             f" ({p.skipped} already done), {p.elapsed:.0f} s{eta} "
@@ -116,7 +115,8 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         friction=parse_number_list(args.friction, "--friction"),
         damping_ratio=parse_number_list(args.damping_ratio, "--damping-ratio"),
     )
-    space.points()  # a bad list is refused before connecting anywhere
+    for point in space.points():  # bad input is refused before connecting anywhere
+        space.design(point)
     try:
         with _sigterm_interrupts(), _executor(args) as client, _progress(args, "sweep") as bar:
             run = run_study(

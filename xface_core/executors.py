@@ -99,6 +99,8 @@ def execute(
         A job's worker died more than ``retries`` times (local pool), or Dask gave up on it.
     """
     n_workers = (os.cpu_count() or 1) if workers is None else workers
+    if not jobs:
+        return
     if executor is None and n_workers <= 1:
         for job in jobs:
             on_result(job, fn(job))

@@ -6,7 +6,9 @@ Layout of a study written to ``study.parquet``:
 - ``study.parquet.parts/``: one small Parquet file per design finished since the last
   compaction, each written to a temporary name and renamed, so a file there is always whole.
   A sweep killed at any moment leaves every finished design on disk; only the designs in
-  flight are lost. The next run (or the end of this one) folds the parts into the table.
+  flight are lost. Every :data:`FOLD_EVERY` parts and at the end of a run the parts are
+  folded into the table (a new file renamed over the old one, then the parts removed; a
+  crash in between leaves rows twice, which reading deduplicates).
 
 Every file carries the study's settings (pose grid, theta grid, solver settings) in its
 Parquet metadata; a run into an output written with other settings is refused, because its
@@ -32,12 +34,15 @@ from .errors import XfaceError, XfaceValueError
 from .physics import SolverSettings
 
 __all__ = [
+    "FOLD_EVERY",
     "KEY_COLUMNS",
     "STUDY_HINT",
     "TIMING_COLUMNS",
     "StudyFile",
     "outcome_column",
     "read_study",
+    "require_pyarrow",
+    "study_settings",
 ]
 
 #: The columns that name a design; together they are its key.
@@ -50,6 +55,10 @@ TIMING_COLUMNS = ("seconds",)
 FORMAT = 1
 
 _META_KEY = b"xface.study"
+
+#: Parts written before they are folded into the table while a study runs: bounds the files
+#: a long study leaves in its parts folder (each fold rewrites the table, so not every row).
+FOLD_EVERY = 500
 
 #: What to install for studies.
 STUDY_HINT = "pip install 'xface[study]'"
@@ -114,6 +123,8 @@ class StudyFile:
         self.path = Path(path)
         self.parts = self.path.with_name(self.path.name + ".parts")
         self.settings = dict(settings)
+        self.fold_every = FOLD_EVERY
+        self._unfolded = 0
         self._schema = _schema(self.settings)
         if self.path.is_dir():
             raise XfaceValueError(f"cannot write the study to {self.path}: it is a directory")
@@ -156,9 +167,13 @@ class StudyFile:
         tmp = name.with_suffix(".tmp")
         pq.write_table(table, tmp)
         os.replace(tmp, name)
+        self._unfolded += 1
+        if self._unfolded >= self.fold_every:
+            self.compact(final=False)
 
-    def compact(self) -> None:
-        """Fold the parts into the one table file (atomically), then remove them."""
+    def compact(self, *, final: bool = True) -> None:
+        """Fold the parts into the one table file (atomically), then remove them (and, when
+        ``final``, their folder)."""
         import pyarrow as pa
         import pyarrow.parquet as pq
 
@@ -174,7 +189,9 @@ class StudyFile:
             os.replace(tmp, self.path)
             for part in parts:
                 part.unlink()
-        self.parts.rmdir()
+        self._unfolded = 0
+        if final:
+            self.parts.rmdir()
 
 
 def _stored_settings(file: Path) -> dict[str, Any]:

@@ -3,6 +3,7 @@ twice, bad input is one line on stderr with exit code 2, the search reproduces t
 
 from __future__ import annotations
 
+import io
 import json
 import os
 import signal
@@ -17,7 +18,8 @@ from PIL import Image
 
 import xface_core as xf
 from xface_core.cli import main
-from xface_core.study import read_study
+from xface_core.cli_study import ProgressBar
+from xface_core.study import StudyProgress, read_study
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -193,3 +195,22 @@ def test_bad_design_input_is_one_line_and_exit_code_2(
     err = capsys.readouterr().err
     assert err.startswith("xface: error: ")
     assert message in err
+
+
+def test_no_progress_bar_when_stderr_is_not_a_terminal(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["sweep", "--grid", "5", "--out", str(tmp_path / "s.parquet")]) == 0
+    assert capsys.readouterr().err == ""
+
+
+def test_the_progress_bar_counts_designs_done_and_skipped() -> None:
+    stream = io.StringIO()
+    bar = ProgressBar(stream, "sweep")
+    bar(StudyProgress(done=0, total=4, skipped=2, elapsed=0.0))
+    bar(StudyProgress(done=1, total=4, skipped=2, elapsed=2.0))
+    bar.close()
+    last = stream.getvalue().split("\r")[-1]
+    assert "[#######.......................] 1/4 designs (2 already done)" in last
+    assert "about 6 s left" in last
+    assert stream.getvalue().endswith("\n")

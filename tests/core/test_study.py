@@ -213,3 +213,20 @@ def test_a_bad_design_space_is_refused(space: DesignSpace, message: str, tmp_pat
 def test_absurd_sizes_are_refused(grid: int, workers: int, tmp_path: Path) -> None:
     with pytest.raises(xf.XfaceValueError):
         run_study(SPACE, tmp_path / "s.parquet", grid=grid, workers=workers)
+
+
+def test_parts_are_folded_into_the_table_while_a_study_runs(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr("xface_core.studyfile.FOLD_EVERY", 4)
+    out = tmp_path / "s.parquet"
+    parts = tmp_path / "s.parquet.parts"
+    seen: list[tuple[int, int]] = []
+
+    def look(p: StudyProgress) -> None:
+        if p.done:
+            seen.append((len(list(parts.glob("*.parquet"))), read_study(out).num_rows))
+
+    run_study(SPACE, out, grid=5, workers=1, progress=look)
+    assert max(n for n, _ in seen) == 3  # never more than FOLD_EVERY - 1 parts
+    assert [rows for _, rows in seen] == list(range(1, len(SPACE) + 1))  # nothing lost
