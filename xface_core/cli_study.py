@@ -21,6 +21,7 @@ from .designsearch import CRITERIA, PAPER_BOX_H_OVER_D, PAPER_BOX_R_P, search_de
 from .designspace import DesignSpace, parse_face_list, parse_number_list
 from .errors import XfaceValueError
 from .grids import PAPER_GRID_SIZE
+from .seatprob import PoseNoise
 from .study import MAX_STUDY_GRID, StudyProgress, read_study, run_study
 
 __all__ = ["add_study_commands"]
@@ -106,6 +107,18 @@ def _check_grid(grid: int) -> None:
         raise XfaceValueError(f"--grid must be <= {MAX_STUDY_GRID}, got {grid}")
 
 
+def _noise(args: argparse.Namespace) -> PoseNoise | None:
+    """The pose noise of ``--sigma-x`` and ``--sigma-theta`` (both or neither), validated."""
+    given = (args.sigma_x is not None, args.sigma_theta is not None)
+    if given == (False, False):
+        return None
+    if given != (True, True):
+        raise XfaceValueError("--sigma-x and --sigma-theta go together: give both")
+    return PoseNoise(
+        args.sigma_x, args.sigma_theta, samples=args.noise_samples, seed=args.noise_seed
+    )
+
+
 def _cmd_sweep(args: argparse.Namespace) -> int:
     _check_grid(args.grid)
     space = DesignSpace(
@@ -117,6 +130,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     )
     for point in space.points():  # bad input is refused before connecting anywhere
         space.design(point)
+    noise = _noise(args)
     try:
         with _sigterm_interrupts(), _executor(args) as client, _progress(args, "sweep") as bar:
             run = run_study(
@@ -124,6 +138,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
                 args.out,
                 grid=args.grid,
                 theta_kind=args.theta_grid,
+                noise=noise,
                 executor=client,
                 workers=args.workers,
                 progress=bar,
@@ -158,6 +173,8 @@ def _box(text: str, option: str) -> tuple[float, float]:
 
 def _row_text(row: dict[str, Any]) -> str:
     parts = [f"H/D={row['h_over_d']:<8.5g} r_p={row['r_p']:<7.5g} M={row['M']:<5d}"]
+    if row["seat_probability"] is not None:
+        parts.append(f"P(seat)={row['seat_probability']:.4f} +- {row['seat_probability_se']:.4f}")
     for region in ("guaranteed", "centred"):
         if row[f"{region}_cells"] == 0:
             parts.append(f"{region}: none")
@@ -183,6 +200,7 @@ def _cmd_design(args: argparse.Namespace) -> int:
         "damping_ratio": args.damping_ratio,
         "grid": args.grid,
         "theta_kind": args.theta_grid,
+        "noise": _noise(args),
         "out": args.out,
         "workers": args.workers,
     }
@@ -241,6 +259,10 @@ def _common_study_args(p: argparse.ArgumentParser) -> None:
         "--scheduler", default=None, help="Dask scheduler address tcp://HOST:PORT (cluster extra)"
     )
     where.add_argument("--workers", type=int, default=None, help="local processes (default: all)")
+    p.add_argument("--sigma-x", type=float, default=None, help="pose noise: std of x0 (D)")
+    p.add_argument("--sigma-theta", type=float, default=None, help="pose noise: std of theta0")
+    p.add_argument("--noise-samples", type=int, default=16, help="noisy poses per grid node")
+    p.add_argument("--noise-seed", type=int, default=0, help="seed of the noisy poses")
     p.add_argument("--quiet", action="store_true", help="no progress bar on stderr")
     p.add_argument("--json", action="store_true", help="machine-readable output")
 

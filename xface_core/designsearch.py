@@ -11,8 +11,10 @@ peak elsewhere that the coarse grid did not see.
 
 Criteria (larger is better): ``"M"``, the number of SEATED poses; ``"guaranteed"``, the
 cells of the largest all-SEATED rectangle; ``"centred"``, the cells of the largest one
-centred on the aligned pose. Ties go to the smaller H/D, then the smaller r_p (the first in
-the table's row-major order).
+centred on the aligned pose; ``"seat_probability"``, the mean seat probability over the
+grid under a pose noise (:mod:`xface_core.seatprob`; every design sees the same draws).
+Ties go to the smaller H/D, then the smaller r_p (the first in the table's row-major
+order).
 """
 
 from __future__ import annotations
@@ -34,14 +36,20 @@ from .errors import XfaceValueError
 from .executors import ClientLike
 from .grids import PAPER_GRID_SIZE, PAPER_H_OVER_D, PAPER_R_P, ThetaGridKind
 from .physics import DEFAULT_SETTINGS, SolverSettings
+from .seatprob import PoseNoise
 from .study import StudyProgress, read_study, run_study
 
 __all__ = ["CRITERIA", "Criterion", "DesignSearch", "box_nodes", "search_designs"]
 
-Criterion = Literal["M", "guaranteed", "centred"]
+Criterion = Literal["M", "guaranteed", "centred", "seat_probability"]
 
 #: The table column each criterion ranks by.
-CRITERIA: dict[str, str] = {"M": "M", "guaranteed": "guaranteed_cells", "centred": "centred_cells"}
+CRITERIA: dict[str, str] = {
+    "M": "M",
+    "guaranteed": "guaranteed_cells",
+    "centred": "centred_cells",
+    "seat_probability": "seat_probability",
+}
 
 #: The paper's box (Tables II-IV): H/D from 1/16 to 16, r_p from 0 to 10 D.
 PAPER_BOX_H_OVER_D = (PAPER_H_OVER_D[0], PAPER_H_OVER_D[-1])
@@ -89,8 +97,9 @@ class DesignSearch:
     face, criterion : str
     h_over_d, r_p : tuple of float
         The coarse grid's axes.
-    coarse : (len(h_over_d), len(r_p)) int array
-        The criterion on the coarse grid (rows H/D, columns r_p), for the heat map.
+    coarse : (len(h_over_d), len(r_p)) array
+        The criterion on the coarse grid (rows H/D, columns r_p), for the heat map: integers,
+        or floats for the seat probability.
     ranked : list of dict
         Every design the search simulated (its study-table row), best first.
     coarse_best : dict
@@ -103,7 +112,7 @@ class DesignSearch:
     criterion: str
     h_over_d: tuple[float, ...]
     r_p: tuple[float, ...]
-    coarse: npt.NDArray[np.int64]
+    coarse: npt.NDArray[Any]
     ranked: list[dict[str, Any]]
     coarse_best: dict[str, Any]
     rounds: int
@@ -147,6 +156,7 @@ def search_designs(
     grid: int = PAPER_GRID_SIZE,
     theta_kind: ThetaGridKind = "symmetric",
     settings: SolverSettings = DEFAULT_SETTINGS,
+    noise: PoseNoise | None = None,
     out: str | os.PathLike[str] | None = None,
     executor: Executor | ClientLike | None = None,
     workers: int | None = None,
@@ -155,7 +165,8 @@ def search_designs(
     """The best design of ``face`` (X, V, S or a name in ``families``) in the box
     ``h_over_d`` x ``r_p`` for one friction and damping ratio, by ``criterion``.
 
-    ``out`` keeps the study table (and makes the search resumable); by default it lives in
+    ``noise`` adds the mean seat probability (required by that criterion). ``out`` keeps
+    the study table (and makes the search resumable); by default it lives in
     a temporary folder. ``executor``, ``workers`` and ``progress`` as for
     :func:`~xface_core.study.run_study`.
 
@@ -166,6 +177,8 @@ def search_designs(
     ((3, 3), True)
     """
     _check(criterion, steps, refine, refine_steps, {"H/D": h_over_d, "r_p": r_p})
+    if criterion == "seat_probability" and noise is None:
+        raise XfaceValueError("the seat_probability criterion needs a pose noise (sigma_x, ...)")
     face = face if families and face in families else face.upper()
     column = CRITERIA[criterion]
     with tempfile.TemporaryDirectory(prefix="xface-design-") as tmp:
@@ -186,6 +199,7 @@ def search_designs(
                 grid=grid,
                 theta_kind=theta_kind,
                 settings=settings,
+                noise=noise,
                 executor=executor,
                 workers=workers,
                 progress=progress,
@@ -209,7 +223,8 @@ def search_designs(
             seen.update({(r["h_over_d"], r["r_p"]): r for r in stage(fine_h, fine_rp)})
             h_ratio = (h_hi / h_lo) ** (1 / (refine_steps - 1))
             rp_step = (rp_hi - rp_lo) / (refine_steps - 1)
-    coarse = np.array([[seen[(h, rp)][column] for rp in rps] for h in hs], dtype=np.int64)
+    dtype = np.float64 if criterion == "seat_probability" else np.int64
+    coarse = np.array([[seen[(h, rp)][column] for rp in rps] for h in hs], dtype=dtype)
     return DesignSearch(
         face=face,
         criterion=criterion,

@@ -3,16 +3,14 @@ grid, one table row per design, written to Parquet as results arrive and resumab
 
 A row holds the design's key (face, H/D, r_p, friction, damping ratio), M (SEATED cells), the
 count of every outcome, the two guaranteed-acceptance rectangles (cells and extents: x0 in D,
-theta0 in rad; null when there is none) and ``seconds``, the time the design took on its
-worker. Every column but ``seconds`` is the same bit for bit whatever the executor and the
-number of workers: each design runs on one thread of one worker through the deterministic
-engine, and the table is sorted by design on reading (:func:`read_study`), not kept in
+theta0 in rad; null when there is none), with a pose noise the mean seat probability over
+the grid and its standard error (:mod:`xface_core.seatprob`; null without), and
+``seconds``, the time the design took on its worker. Every column but ``seconds`` is the
+same bit for bit whatever the executor and the number of workers: each design runs on one
+thread of one worker through the deterministic engine (the noise draws come from a seeded
+generator), and the table is sorted by design on reading (:func:`read_study`), not kept in
 completion order. ``seconds`` stays in the same table for the user's benefit and is left out
 of every equality check (``read_study(path, timing=False)``).
-
-Mean seat probabilities under a pose covariance are not computed: they need the seat
-probability of a pose, which xface does not have yet (a Gaussian-weighted fraction of SEATED
-grid neighbours would be a different quantity).
 """
 
 from __future__ import annotations
@@ -31,6 +29,7 @@ from .geometry import FaceDesign, x_face
 from .grids import PAPER_GRID_SIZE, ThetaGridKind, theta_grid
 from .physics import DEFAULT_SETTINGS, Physics, SolverSettings
 from .regions import CellRect
+from .seatprob import PoseNoise, mean_seat_probability
 from .studyfile import (
     KEY_COLUMNS,
     TIMING_COLUMNS,
@@ -69,6 +68,7 @@ class DesignJob:
     grid: int
     theta_kind: ThetaGridKind
     settings: SolverSettings
+    noise: PoseNoise | None = None
 
     def __str__(self) -> str:
         return "design " + ", ".join(f"{k}={v}" for k, v in self.point._asdict().items())
@@ -96,6 +96,12 @@ def evaluate_design(job: DesignJob) -> dict[str, Any]:
     row.update({outcome_column(o): n for o, n in amap.counts().items()})
     row.update(_region_columns("guaranteed", amap, amap.guaranteed))
     row.update(_region_columns("centred", amap, amap.centred))
+    row["seat_probability"] = row["seat_probability_se"] = None
+    if job.noise is not None:
+        p = mean_seat_probability(
+            job.design, job.noise, grid=job.grid, theta_kind=job.theta_kind, physics=physics
+        )
+        row["seat_probability"], row["seat_probability_se"] = p.mean, p.standard_error
     row["seconds"] = time.perf_counter() - start
     return row
 
@@ -136,12 +142,15 @@ def run_study(
     grid: int = PAPER_GRID_SIZE,
     theta_kind: ThetaGridKind = "symmetric",
     settings: SolverSettings = DEFAULT_SETTINGS,
+    noise: PoseNoise | None = None,
     executor: Executor | ClientLike | None = None,
     workers: int | None = None,
     progress: Callable[[StudyProgress], None] | None = None,
 ) -> StudyRun:
     """Simulate every design of ``space`` not yet in ``out`` and write its row there.
 
+    ``noise`` adds the mean seat probability over the grid under that pose noise, with its
+    standard error (:mod:`xface_core.seatprob`; ``samples`` simulations per grid node).
     ``executor``: None for local processes (``workers`` of them, default one per core; 1 runs
     in this process), any :class:`concurrent.futures.Executor`, or a
     ``dask.distributed.Client``. Every design is validated (built) before anything runs.
@@ -178,10 +187,10 @@ def run_study(
         raise XfaceValueError(f"workers must be in [1, {MAX_LOCAL_WORKERS}], got {workers}")
     points = space.points()
     designs = [space.design(p) for p in points]
-    study = StudyFile(out, study_settings(grid, theta_kind, settings))
+    study = StudyFile(out, study_settings(grid, theta_kind, settings, noise))
     already = study.done()
     jobs = [
-        DesignJob(p, d, grid, theta_kind, settings)
+        DesignJob(p, d, grid, theta_kind, settings, noise)
         for p, d in zip(points, designs, strict=True)
         if p not in already
     ]

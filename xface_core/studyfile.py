@@ -32,6 +32,7 @@ from .codes import Outcome
 from .designspace import DesignPoint
 from .errors import XfaceError, XfaceValueError
 from .physics import SolverSettings
+from .seatprob import PoseNoise
 
 __all__ = [
     "FOLD_EVERY",
@@ -96,18 +97,22 @@ def _schema(metadata: Mapping[str, Any]) -> Any:
             for axis in ("x0", "theta0")
             for end in ("min", "max")
         ]
+    fields += [("seat_probability", pa.float64()), ("seat_probability_se", pa.float64())]
     fields.append(("seconds", pa.float64()))
     meta = {_META_KEY: json.dumps(dict(metadata), sort_keys=True).encode()}
     return pa.schema(fields, metadata=meta)
 
 
-def study_settings(grid: int, theta_kind: str, settings: SolverSettings) -> dict[str, Any]:
+def study_settings(
+    grid: int, theta_kind: str, settings: SolverSettings, noise: PoseNoise | None = None
+) -> dict[str, Any]:
     """What every row of a study shares, stored in each file's metadata."""
     return {
         "format": FORMAT,
         "grid": grid,
         "theta_grid": theta_kind,
         "settings": asdict(settings),
+        "pose_noise": None if noise is None else noise.as_dict(),
     }
 
 

@@ -115,6 +115,8 @@ def test_a_terminated_sweep_writes_what_was_running_and_resumes(
         (["--workers", "-3"], "workers must be in"),
         (["--damping-ratio", "0"], "damping_ratio must be in"),
         (["--scheduler", "localhost"], "--scheduler must be an address like tcp://HOST:8786"),
+        (["--sigma-x", "0.1"], "--sigma-x and --sigma-theta go together: give both"),
+        (["--sigma-x", "0.1", "--sigma-theta", "-1"], "sigma_theta must be in"),
     ],
 )
 def test_bad_sweep_input_is_one_line_and_exit_code_2(
@@ -186,6 +188,7 @@ def test_xface_design_prints_the_best_and_the_runners_up(
         (["--h-over-d", "0.25"], "--h-over-d: give the box as LO,HI"),
         (["--rp", "3,1"], "the r_p box must be two finite values lo < hi"),
         (["--steps", "500"], "steps must be in"),
+        (["--criterion", "seat_probability"], "the seat_probability criterion needs a pose noise"),
     ],
 )
 def test_bad_design_input_is_one_line_and_exit_code_2(

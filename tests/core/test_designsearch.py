@@ -10,6 +10,7 @@ import pytest
 
 import xface_core as xf
 from xface_core.designsearch import box_nodes, search_designs
+from xface_core.seatprob import PoseNoise
 from xface_core.study import read_study
 
 #: The documented smaller grid of the check against ``xface table --face X``: 11 x 11 poses
@@ -42,19 +43,31 @@ def test_refinement_keeps_or_beats_the_coarse_best(table: xf.MTable) -> None:
     assert len(found.ranked) > table.M.size  # the refinement simulated new designs
 
 
-def test_the_guaranteed_criterion_ranks_by_the_rectangle() -> None:
+@pytest.mark.parametrize(
+    ("criterion", "column", "noise"),
+    [
+        ("guaranteed", "guaranteed_cells", None),
+        ("centred", "centred_cells", None),
+        ("seat_probability", "seat_probability", PoseNoise(0.1, 0.1, samples=4)),
+    ],
+)
+def test_a_criterion_ranks_by_its_column(
+    criterion: str, column: str, noise: PoseNoise | None
+) -> None:
     found = search_designs(
         "V",
         h_over_d=(0.25, 1.0),
         r_p=(0.0, 2.0),
         steps=3,
         refine=0,
-        criterion="guaranteed",
+        criterion=criterion,
+        noise=noise,
         grid=7,
         workers=1,
     )
-    cells = [r["guaranteed_cells"] for r in found.ranked]
-    assert cells == sorted(cells, reverse=True)
+    values = [r[column] for r in found.ranked]
+    assert values == sorted(values, reverse=True)
+    assert found.coarse.max() == values[0]
 
 
 def test_a_search_with_an_output_resumes_from_it(tmp_path: Path) -> None:
@@ -80,3 +93,8 @@ def test_a_search_with_an_output_resumes_from_it(tmp_path: Path) -> None:
 def test_bad_search_settings_are_refused(kwargs: dict[str, object], message: str) -> None:
     with pytest.raises(xf.XfaceValueError, match=message):
         search_designs("X", grid=5, workers=1, **kwargs)  # type: ignore[arg-type]
+
+
+def test_the_seat_probability_criterion_needs_a_pose_noise() -> None:
+    with pytest.raises(xf.XfaceValueError, match="needs a pose noise"):
+        search_designs("X", criterion="seat_probability", grid=5, workers=1)

@@ -16,6 +16,7 @@ import pytest
 import xface_core as xf
 from xface_core.designspace import DesignPoint, DesignSpace
 from xface_core.executors import _LocalPool
+from xface_core.seatprob import PoseNoise
 from xface_core.study import StudyProgress, read_study, run_study
 from xface_core.studyfile import KEY_COLUMNS
 
@@ -230,3 +231,23 @@ def test_parts_are_folded_into_the_table_while_a_study_runs(
     run_study(SPACE, out, grid=5, workers=1, progress=look)
     assert max(n for n, _ in seen) == 3  # never more than FOLD_EVERY - 1 parts
     assert [rows for _, rows in seen] == list(range(1, len(SPACE) + 1))  # nothing lost
+
+
+def test_with_pose_noise_local_processes_give_the_serial_table(tmp_path: Path) -> None:
+    noise = PoseNoise(0.05, 0.05, samples=4)
+    run_study(SPACE, tmp_path / "a.parquet", grid=5, noise=noise, workers=1)
+    run_study(SPACE, tmp_path / "b.parquet", grid=5, noise=noise, workers=2)
+    a = read_study(tmp_path / "a.parquet", timing=False)
+    assert all(p is not None for p in a["seat_probability"].to_pylist())
+    assert read_study(tmp_path / "b.parquet", timing=False).equals(a)
+
+
+def test_without_pose_noise_the_seat_probability_is_null(serial: Any) -> None:
+    assert serial["seat_probability"].null_count == serial.num_rows
+
+
+def test_another_pose_noise_is_another_study(tmp_path: Path) -> None:
+    space = DesignSpace(faces=("V",), h_over_d=(0.5,), r_p=(1.0,))
+    run_study(space, tmp_path / "s.parquet", grid=5, workers=1, noise=PoseNoise(0.05, 0.05))
+    with pytest.raises(xf.XfaceValueError, match="pose_noise"):
+        run_study(space, tmp_path / "s.parquet", grid=5, workers=1, noise=PoseNoise(0.1, 0.05))

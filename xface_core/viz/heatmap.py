@@ -49,6 +49,11 @@ def ramp_colors(values: npt.ArrayLike) -> npt.NDArray[np.uint8]:
     return np.asarray(np.rint(rgb), dtype=np.uint8)
 
 
+def _value_text(value: float, integral: bool) -> str:
+    """A cell's label: the integer, or three decimals (a probability)."""
+    return f"{int(value)}" if integral else f"{value:.3f}"
+
+
 def _ink_on(rgb: npt.NDArray[np.uint8]) -> tuple[int, int, int]:
     """Black on light cells, white on dark ones (luma of ITU-R BT.601)."""
     luma = 0.299 * rgb[0] + 0.587 * rgb[1] + 0.114 * rgb[2]
@@ -64,7 +69,8 @@ def save_heatmap_png(
     best: tuple[int, int] | None = None,
     title: str = "",
 ) -> Path:
-    """Write ``values`` (rows H/D, columns r_p) as a heat map PNG at ``path``.
+    """Write ``values`` (rows H/D, columns r_p; integers, or fractions shown to three
+    decimals) as a heat map PNG at ``path``.
 
     ``best`` (row, column) is outlined. Raises :class:`XfaceValueError` when the shapes do
     not agree.
@@ -77,7 +83,8 @@ def save_heatmap_png(
     ...     Image.open(p).size[0] > 2 * CELL_PX
     True
     """
-    grid = np.asarray(values, dtype=np.int64)
+    grid = np.asarray(values, dtype=np.float64)
+    integral = bool(np.all(grid == np.round(grid)))
     if grid.ndim != 2 or grid.shape != (len(h_over_d), len(r_p)) or grid.size == 0:
         raise XfaceValueError(
             f"values must be (len(h_over_d), len(r_p)) = ({len(h_over_d)}, {len(r_p)}), "
@@ -91,7 +98,8 @@ def save_heatmap_png(
     top = 3 * _PAD + _text_size(title_font, title or "Ag")[1]
     right, bottom = left + m * CELL_PX, top + n * CELL_PX
     bar_x = right + 3 * _PAD
-    width = max(bar_x + 20 + _PAD + _text_size(font, str(grid.max()))[0] + 2 * _PAD, right)
+    top_text, bottom_text = (_value_text(v, integral) for v in (grid.max(), grid.min()))
+    width = max(bar_x + 20 + _PAD + _text_size(font, top_text)[0] + 2 * _PAD, right)
     image = Image.new("RGB", (width, bottom + 2 * line_h + 2 * _PAD), _PAPER)
     draw = ImageDraw.Draw(image)
     draw.text((left, _PAD), title, font=title_font, fill=_INK)
@@ -104,7 +112,7 @@ def save_heatmap_png(
             x0 = left + j * CELL_PX
             rgb = colors[i, j]
             draw.rectangle((x0, y0, x0 + CELL_PX - 1, y0 + CELL_PX - 1), fill=tuple(rgb.tolist()))
-            text = str(grid[i, j])
+            text = _value_text(grid[i, j], integral)
             tw, th = _text_size(font, text)
             xy = (x0 + (CELL_PX - tw) // 2, y0 + (CELL_PX - th) // 2 - 2)
             draw.text(xy, text, font=font, fill=_ink_on(rgb))
@@ -122,9 +130,9 @@ def save_heatmap_png(
         draw.rectangle((x0 + 3, y0 + 3, x0 + CELL_PX - 4, y0 + CELL_PX - 4), outline=_PAPER)
     ramp = ramp_colors(np.linspace(1.0, 0.0, bottom - top))  # top of the bar: the maximum
     image.paste(Image.fromarray(np.repeat(ramp[:, None, :], 20, axis=1)), (bar_x, top))
-    draw.text((bar_x + 20 + _PAD, top), str(grid.max()), font=font, fill=_INK)
-    _, th = _text_size(font, str(grid.min()))
-    draw.text((bar_x + 20 + _PAD, bottom - th - 4), str(grid.min()), font=font, fill=_INK)
+    draw.text((bar_x + 20 + _PAD, top), top_text, font=font, fill=_INK)
+    _, th = _text_size(font, bottom_text)
+    draw.text((bar_x + 20 + _PAD, bottom - th - 4), bottom_text, font=font, fill=_INK)
     out = Path(path)
     image.save(out, format="PNG")
     return out
