@@ -3,6 +3,8 @@ gives the same table as local processes, through the API and through ``--schedul
 
 from __future__ import annotations
 
+import os
+import signal
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -12,7 +14,7 @@ import pytest
 from xface_core.cli import main
 from xface_core.designspace import DesignSpace
 from xface_core.errors import XfaceValueError
-from xface_core.study import read_study, run_study
+from xface_core.study import StudyProgress, read_study, run_study
 
 distributed = pytest.importorskip("distributed")
 
@@ -85,3 +87,26 @@ def test_a_scheduler_address_without_a_protocol_is_refused() -> None:
 
     with pytest.raises(XfaceValueError, match="tcp://HOST:8786"):
         connect("127.0.0.1:8786")
+
+
+def test_a_worker_that_dies_mid_sweep_has_its_designs_run_elsewhere(
+    client: Any, tmp_path: Path
+) -> None:
+    # 21 x 21 poses: designs long enough that some are running when the worker dies.
+    run_study(SPACE, tmp_path / "serial.parquet", grid=21, workers=1)
+    pids = client.run(os.getpid)  # {worker address: pid}: processes of this test's cluster
+    killed: list[int] = []
+
+    def kill_a_worker(p: StudyProgress) -> None:
+        if p.done == 1 and not killed:
+            killed.append(next(iter(pids.values())))
+            os.kill(killed[0], signal.SIGKILL)
+
+    out = tmp_path / "study.parquet"
+    run = run_study(SPACE, out, grid=21, executor=client, progress=kill_a_worker)
+    assert killed
+    assert run.computed == len(SPACE)
+    expected = read_study(tmp_path / "serial.parquet", timing=False)
+    assert read_study(out, timing=False).equals(expected)
+    client.wait_for_workers(2, timeout=60)  # the nanny started a new worker
+    assert killed[0] not in client.run(os.getpid).values()
