@@ -188,6 +188,18 @@ def test_a_custom_family_sweeps_like_a_built_in_face(tmp_path: Path) -> None:
     assert by_face["hand-drawn V"] == by_face["V"]
 
 
+def test_a_family_may_be_a_lambda_even_with_worker_processes(tmp_path: Path) -> None:
+    # Families are called in the calling process; only the designs go to the workers.
+    space = DesignSpace(
+        faces=("lambda V",),
+        h_over_d=(0.5,),
+        r_p=(1.0, 2.0),
+        families={"lambda V": lambda h, rp: _hand_drawn_v(h, rp)},
+    )
+    run = run_study(space, tmp_path / "s.parquet", grid=7, workers=2)
+    assert run.computed == 2
+
+
 def test_a_family_that_builds_no_design_is_refused_before_running(tmp_path: Path) -> None:
     space = DesignSpace(faces=("bad",), h_over_d=(0.5,), r_p=(1.0,), families={"bad": max})  # type: ignore[dict-item]
     with pytest.raises(xf.XfaceValueError, match="must return a FaceDesign"):
