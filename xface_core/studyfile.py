@@ -136,8 +136,9 @@ class StudyFile:
         self._check_existing()  # before creating anything
         try:
             self.parts.mkdir(parents=False, exist_ok=True)
-            for stale in self.parts.glob("*.tmp"):
-                stale.unlink()  # a part whose writer was killed before its rename
+            # A part, or a folded table, whose writer was killed before its rename.
+            for stale in [*self.parts.glob("*.tmp"), self._folded_tmp()]:
+                stale.unlink(missing_ok=True)
         except OSError as exc:
             raise XfaceValueError(f"cannot write the study to {self.path}: {exc}") from None
 
@@ -153,6 +154,9 @@ class StudyFile:
                     f"{file} belongs to another study ({_difference(found, self.settings)}): "
                     "write this study to another --out"
                 )
+
+    def _folded_tmp(self) -> Path:
+        return self.path.with_name(self.path.name + ".tmp")
 
     def done(self) -> set[DesignPoint]:
         """The designs already in the table or its parts."""
@@ -189,7 +193,7 @@ class StudyFile:
                 if parts
                 else pa.Table.from_pylist([], schema=self._schema)
             )
-            tmp = self.path.with_name(self.path.name + ".tmp")
+            tmp = self._folded_tmp()
             pq.write_table(table, tmp)
             os.replace(tmp, self.path)
             for part in parts:

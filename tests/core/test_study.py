@@ -263,3 +263,12 @@ def test_another_pose_noise_is_another_study(tmp_path: Path) -> None:
     run_study(space, tmp_path / "s.parquet", grid=5, workers=1, noise=PoseNoise(0.05, 0.05))
     with pytest.raises(xf.XfaceValueError, match="pose_noise"):
         run_study(space, tmp_path / "s.parquet", grid=5, workers=1, noise=PoseNoise(0.1, 0.05))
+
+
+def test_files_left_half_written_by_a_killed_run_are_removed(tmp_path: Path) -> None:
+    space = DesignSpace(faces=("V",), h_over_d=(0.5,), r_p=(1.0,))
+    (tmp_path / "s.parquet.parts").mkdir()
+    (tmp_path / "s.parquet.parts" / "abc.tmp").write_bytes(b"PAR1 half")
+    (tmp_path / "s.parquet.tmp").write_bytes(b"PAR1 half")
+    run_study(space, tmp_path / "s.parquet", grid=5, workers=1)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s.parquet"]
