@@ -1,5 +1,6 @@
-"""The ``xface`` command line: predict one dock, map a design, tabulate M, benchmark, and
-cross-check xface against an independent engine.
+"""The ``xface`` command line: predict one dock, map a design, tabulate M, benchmark,
+cross-check xface against an independent engine, and run design studies (``sweep``,
+``design``: :mod:`xface_core.cli_study`).
 
 Lengths are in units of D unless ``--width`` gives D in metres (or any unit): then x0 and
 y-start are read, and lengths printed, in that unit. Plain text by default, ``--json`` for
@@ -20,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from .cli_study import add_study_commands
 from .errors import XfaceError, XfaceValueError
 from .frames import NotFacingError, check_facing
 from .geometry import make_face
@@ -54,7 +56,9 @@ class _CrosscheckMissing(Exception):
 def _check_viz(args: argparse.Namespace) -> None:
     """Import the viz modules the chosen options need, before any simulation runs."""
     needed = [
-        (option, module) for name, option, module in _VIZ_OPTIONS if getattr(args, name, None)
+        (option, "heatmap" if args.command == "design" else module)
+        for name, option, module in _VIZ_OPTIONS
+        if getattr(args, name, None)
     ]
     if args.command == "bench":  # the bench always draws its work-precision plot
         needed.append(("bench", "benchplot"))
@@ -518,6 +522,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
     p.add_argument("--json", action="store_true", help="machine-readable output")
     p.set_defaults(func=_cmd_crosscheck)
+
+    add_study_commands(sub)
 
     p = sub.add_parser("bench", help="work-precision benchmark and stress summary")
     p.add_argument("--out", default="bench", help="output folder for the table and plot")

@@ -16,8 +16,8 @@ import pytest
 ROOT = Path(__file__).resolve().parents[2]
 
 #: Top-level modules of the viz extra (rerun-sdk brings rerun_bindings), of the crosscheck
-#: extra (pymunk) and of ROS.
-BLOCKED = ("rerun", "rerun_bindings", "PIL", "rclpy", "pymunk")
+#: extra (pymunk), of the study and cluster extras (pyarrow, dask) and of ROS.
+BLOCKED = ("rerun", "rerun_bindings", "PIL", "rclpy", "pymunk", "pyarrow", "dask", "distributed")
 
 # A fresh interpreter with a meta-path finder that refuses the blocked modules, so imports
 # behave as in an environment where `pip install .` installed the simulator alone.
@@ -97,6 +97,7 @@ def test_core_imports_and_simulates_without_the_extras() -> None:
     ("argv", "option"),
     [
         (["map", "--face", "V", "--grid", "11", "--png", "out.png"], "--png"),
+        (["design", "--grid", "5", "--steps", "2", "--png", "out.png"], "--png"),
         (["map", "--face", "V", "--grid", "11", "--rrd", "out.rrd"], "--rrd"),
         (["predict", "--x0", "0.3", "--theta0", "0.2", "--rrd", "out.rrd"], "--rrd"),
         (["bench", "--quick", "--out", "bench"], "bench"),
@@ -110,3 +111,22 @@ def test_cli_option_without_the_viz_extra_exits_2_with_one_line(
     assert result.stderr == f"xface: {option} needs the viz extra: pip install 'xface[viz]'\n"
     assert result.stdout == ""
     assert list(tmp_path.iterdir()) == []  # refused before simulating or writing anything
+
+
+def test_a_sweep_without_the_study_extra_exits_2_with_one_line(tmp_path: Path) -> None:
+    result = run_blocked(_CLI, "sweep", "--grid", "5", "--out", "s.parquet", cwd=tmp_path)
+    assert result.returncode == 2, result.stderr
+    assert result.stderr == (
+        "xface: error: design studies need the study extra (pyarrow): pip install 'xface[study]'\n"
+    )
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_scheduler_without_the_cluster_extra_exits_2_with_one_line(tmp_path: Path) -> None:
+    argv = ("sweep", "--grid", "5", "--out", "s.parquet", "--scheduler", "tcp://127.0.0.1:8786")
+    result = run_blocked(_CLI, *argv, cwd=tmp_path)
+    assert result.returncode == 2, result.stderr
+    assert result.stderr == (
+        "xface: error: --scheduler needs the cluster extra: pip install 'xface[cluster]'\n"
+    )
+    assert list(tmp_path.iterdir()) == []

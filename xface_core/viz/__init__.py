@@ -7,4 +7,6 @@ Importing this package imports nothing heavy: import the module you need.
   acceptance maps, with a viewer layout (rerun-sdk).
 - :mod:`xface_core.viz.mapimage`: acceptance maps as PNG pictures (pillow).
 - :mod:`xface_core.viz.benchplot`: the work-precision plot of ``xface bench`` (pillow).
+- :mod:`xface_core.viz.heatmap`: a design search's criterion over H/D x r_p as a PNG
+  heat map (pillow).
 """
