@@ -248,9 +248,13 @@ def _cmd_map(args: argparse.Namespace) -> int:
 
         save_map_png(amap, args.png)
     if args.rrd:
-        from .viz.recording import log_acceptance_map, new_recording
+        from .viz.recording import default_blueprint, log_acceptance_map, new_recording
 
-        rec = new_recording(path=args.rrd)
+        # Its own application id: the viewer keeps one layout per id, so a map opens on
+        # the map tab even in a viewer that showed predictions.
+        rec = new_recording(
+            application_id="xface-map", path=args.rrd, blueprint=default_blueprint(active="map")
+        )
         log_acceptance_map(rec, amap)
         rec.flush()
         rec.disconnect()

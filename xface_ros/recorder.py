@@ -39,7 +39,11 @@ class Recorder:
             return None
         path = config.record_path or default_record_path()
         stream = recording.new_recording(
-            application_id="xface", path=path, url=config.record_url or None
+            application_id="xface",
+            path=path,
+            url=config.record_url or None,
+            # Opens on the node's timeline: the verdict series over the poses' stamps.
+            blueprint=recording.default_blueprint(active="node"),
         )
         logger.info(
             f"recording predictions to {path}"
@@ -47,12 +51,15 @@ class Recorder:
         )
         return cls(stream, path=path, url=config.record_url)
 
-    def record(self, prediction: Prediction, *, stamp_ns: int) -> None:
+    def record(self, prediction: Prediction, *, stamp_ns: int, accepted: bool) -> None:
         """Log one prediction on the ``ros2_timestamp`` timeline at ``stamp_ns`` (the input's
-        header stamp, ns since the epoch). Raises what rerun raises."""
+        header stamp, ns since the epoch): its path, and the verdict series (outcome code,
+        ``accepted`` as the node decided it, the margins, the input pose). Raises what rerun
+        raises."""
         from xface_core.viz import recording
 
         recording.log_prediction(self._stream, prediction, ros_stamp_ns=stamp_ns)
+        recording.log_verdict(self._stream, prediction, accepted=accepted, ros_stamp_ns=stamp_ns)
 
     def finish(self, *, timeout_s: float = 10.0) -> None:
         """Flush (waiting up to ``timeout_s``) and disconnect, which writes the file's footer."""

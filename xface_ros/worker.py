@@ -197,11 +197,13 @@ class PredictionWorker:
                 throttle_duration_sec=LOG_THROTTLE_S,
             )
         elif self._recorder is not None:
-            self._record(self._recorder, verdict.prediction, verdict.stamp_ns)
+            self._record(self._recorder, verdict.prediction, verdict.stamp_ns, verdict.accepted)
 
-    def _record(self, recorder: Recorder, prediction: Prediction, stamp_ns: int) -> None:
+    def _record(
+        self, recorder: Recorder, prediction: Prediction, stamp_ns: int, accepted: bool
+    ) -> None:
         try:
-            recorder.record(prediction, stamp_ns=stamp_ns)
+            recorder.record(prediction, stamp_ns=stamp_ns, accepted=accepted)
         except Exception as exc:  # a recording problem must never stop the predictions
             self.stats.count_recording_error()
             self._logger.error(f"recording failed: {exc!r}", throttle_duration_sec=LOG_THROTTLE_S)

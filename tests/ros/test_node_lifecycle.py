@@ -16,6 +16,7 @@ from diagnostic_msgs.msg import DiagnosticStatus
 
 from xface_core.frames import wrap_angle
 from xface_core.geometry import make_face
+from xface_core.outcome import Outcome
 from xface_core.predict import predict
 
 pytestmark = pytest.mark.ros
@@ -125,3 +126,37 @@ def test_recording_is_finished_on_shutdown(launch: Any, tmp_path: Path) -> None:
 
     store = rr.chunk.RrdReader(str(rrd)).store()  # a truncated file would fail to decode
     assert store is not None
+
+
+def _series(rrd: Path, entity: str) -> list[float]:
+    """The scalars of one entity of a recording, in the order of the ROS stamps."""
+    import rerun as rr
+
+    rows: list[tuple[int, float]] = []
+    for chunk in rr.chunk.RrdReader(str(rrd)).store().stream():
+        if chunk.entity_path != entity:
+            continue
+        batch = chunk.to_record_batch()
+        stamps = batch.column("ros2_timestamp").cast("int64").to_pylist()
+        scalars = [v[0] for v in batch.column("Scalars:scalars").to_pylist()]
+        rows.extend(zip(stamps, scalars, strict=True))
+    return [v for _, v in sorted(rows)]
+
+
+def test_the_recording_holds_outcome_accepted_and_margin_series(
+    launch: Any, tmp_path: Path
+) -> None:
+    pytest.importorskip("xface_core.viz.recording")
+    rrd = tmp_path / "run.rrd"
+    running = launch(compute_margins=True, record=True, record_path=str(rrd))
+    statuses = [stream(running, 0.3, 0.2), stream(running, 0.9, 0.8)]
+    assert running.node.stop(signal.SIGINT) == 0, running.node.log()
+    values = [running.client.values(s) for s in statuses]
+    assert _series(rrd, "/xface/verdict/outcome_code") == [
+        float(Outcome[v["outcome"]]) for v in values
+    ]
+    assert _series(rrd, "/xface/verdict/accepted") == [
+        1.0 if v["accepted"] == "true" else 0.0 for v in values
+    ]
+    margins = _series(rrd, "/xface/verdict/margin/lateral_minus")
+    assert margins[0] == pytest.approx(float(values[0]["margin_lateral_minus_m"]))

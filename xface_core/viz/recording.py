@@ -25,7 +25,9 @@ Timelines
     second (quasi-static motion has no other time; 1 s on this timeline is one length unit).
     ``ros2_timestamp`` (timestamp): the ROS header stamp of the pose the prediction was
     made for, rerun's ROS convention; only when ``ros_stamp_ns`` is given, the same stamp on
-    every sample of the prediction (scrubbing it shows each prediction's final state).
+    every sample of the prediction (scrubbing it shows each prediction's final state). The
+    node's verdicts (:func:`log_verdict`) live on this timeline only: one row per prediction,
+    so "accepted over time" is a plot and a session's BAD_MATEs a query.
 Determinism
     :func:`new_recording` turns off rerun's automatic ``log_time`` and ``log_tick`` columns
     and does not send the recording properties (whose start time is the wall clock); the
@@ -49,6 +51,11 @@ Entity tree (``entity="xface"``, ``entity="map"`` by default)::
     xface/phase                 StateChange: the phase per sample
     xface/log                   TextLog: the start, every phase change, the outcome
     xface/series/{phi_b,phi_m,descent,gap}  Scalars per sample
+    xface/scene/pivot_path      LineStrips2D: the moving pivot's whole path (at step 0)
+    xface/design/values         AnyValues: face, H/D, r_p, width, L, layers (static)
+    xface/verdict/{outcome_code,accepted,seat_probability}  Scalars, one row per prediction
+    xface/verdict/input/{x0,theta0,y_start}   the query pose, one row per prediction
+    xface/verdict/margin/{lateral_minus,lateral_plus,angle_minus,angle_plus}  the margins
     map                         AnnotationContext: outcome legend (static)
     map/cells                   mirror transform (static)
     map/cells/image             SegmentationImage of Outcome values (static)
@@ -85,6 +92,7 @@ __all__ = [
     "log_acceptance_map",
     "log_design",
     "log_prediction",
+    "log_verdict",
     "new_recording",
 ]
 
@@ -133,18 +141,21 @@ def default_blueprint(
     map_entity: str = "map",
     active: str = "prediction",
 ) -> rrb.Blueprint:
-    """The viewer layout built in code: a "prediction" tab and an "acceptance map" tab.
+    """The viewer layout built in code: "prediction", "node timeline" and "acceptance map"
+    tabs.
 
     The prediction tab shows the 2-D scene (with the design in a second tab beside it), the
-    angles, the descent and the gap over the path, the phase, and the text log. The map tab
+    angles, the descent and the gap over the path, the phase, and the text log. The node
+    timeline tab shows the verdict series of :func:`log_verdict` (outcome code, accepted,
+    margins, the input pose) over the ROS stamps, with the scene beside them. The map tab
     shows the map image with its legend and the summary.
 
     Parameters
     ----------
     entity, map_entity : str
         The entities given to :func:`log_prediction` and :func:`log_acceptance_map`.
-    active : {"prediction", "map"}
-        The tab shown first.
+    active : {"prediction", "node", "map"}
+        The tab shown first ("node" also sets the time panel to ``ros2_timestamp``).
 
     Examples
     --------
@@ -152,8 +163,9 @@ def default_blueprint(
     >>> type(bp).__name__
     'Blueprint'
     """
-    if active not in ("prediction", "map"):
-        raise XfaceValueError(f"active must be 'prediction' or 'map', got {active!r}")
+    tabs = ("prediction", "node", "map")
+    if active not in tabs:
+        raise XfaceValueError(f"active must be one of {', '.join(tabs)}; got {active!r}")
     e, m = _root(entity), _root(map_entity)
     scene = rrb.Spatial2DView(name="scene", origin=e, contents=f"/{e}/scene/**")
     design = rrb.Spatial2DView(name="design", origin=e, contents=f"/{e}/design/**")
@@ -175,21 +187,38 @@ def default_blueprint(
         column_shares=[3, 2],
         name="prediction",
     )
+    verdicts = rrb.TimeSeriesView(
+        name="outcome code and accepted",
+        origin=f"{e}/verdict",
+        contents=[f"/{e}/verdict/outcome_code", f"/{e}/verdict/accepted"],
+    )
+    margins = rrb.TimeSeriesView(name="margins", origin=f"{e}/verdict/margin")
+    inputs = rrb.TimeSeriesView(name="input pose", origin=f"{e}/verdict/input")
+    node_tab = rrb.Horizontal(
+        rrb.Spatial2DView(name="scene", origin=e, contents=f"/{e}/scene/**"),
+        rrb.Vertical(verdicts, margins, inputs, log),
+        column_shares=[2, 3],
+        name="node timeline",
+    )
     map_tab = rrb.Horizontal(
         rrb.Spatial2DView(name="acceptance map", origin=m, contents=f"/{m}/cells/**"),
         rrb.TextDocumentView(name="summary", origin=f"{m}/summary"),
         column_shares=[3, 1],
         name="acceptance map",
     )
+    if active == "map":
+        time_panel = rrb.TimePanel(state="collapsed")
+    else:
+        # Paused: the viewer opens on a still picture. A prediction's series run over the
+        # simulation's own clock (the descent, the quasi-static path parameter); a node's
+        # verdicts over the stamps of the poses they answer.
+        timeline = "sim_descent" if active == "prediction" else "ros2_timestamp"
+        time_panel = rrb.TimePanel(state="expanded", timeline=timeline, play_state="paused")
     return rrb.Blueprint(
-        rrb.Tabs(prediction_tab, map_tab, active_tab=0 if active == "prediction" else 1),
+        rrb.Tabs(prediction_tab, node_tab, map_tab, active_tab=tabs.index(active)),
         rrb.BlueprintPanel(state="collapsed"),
         rrb.SelectionPanel(state="collapsed"),
-        # Paused, on the simulation's own clock: the viewer opens on a still picture and the
-        # time series run over the descent (the quasi-static path parameter).
-        rrb.TimePanel(state="expanded", timeline="sim_descent", play_state="paused")
-        if active == "prediction"
-        else rrb.TimePanel(state="collapsed"),
+        time_panel,
     )
 
 
@@ -277,7 +306,9 @@ def _check_finite(name: str, values: npt.ArrayLike) -> None:
 
 
 def log_design(rec: rr.RecordingStream, design: FaceDesign, *, entity: str = "xface") -> None:
-    """Log the design statically: both parts' outlines per layer in the mated pose, pivots.
+    """Log the design statically: both parts' outlines per layer in the mated pose, pivots,
+    and its parameters as values (``{entity}/design/values``: face, h_over_d, r_p, width,
+    mated_distance in the design's unit, n_layers; NaN H/D and r_p for a custom face).
 
     The base is at its body frame (pivot at the origin), the moving part seated at x0 = 0
     (pivot at (0, L)), in the design's length unit, under ``{entity}/design``.
@@ -298,6 +329,18 @@ def log_design(rec: rr.RecordingStream, design: FaceDesign, *, entity: str = "xf
     w = design.width
     L = design.mated_distance
     rec.log(f"{e}/design", _Y_UP, static=True)
+    rec.log(
+        f"{e}/design/values",
+        rr.AnyValues(
+            face=design.kind,
+            h_over_d=design.h_over_d,
+            r_p=design.r_p,
+            width=w,
+            mated_distance=L * w,
+            n_layers=design.n_layers,
+        ),
+        static=True,
+    )
     for k in range(design.n_layers):
         for part, outline, colors in (
             ("base", design.base_outline_world(k, 0.0), _BASE_COLORS),
@@ -409,6 +452,7 @@ def _log_statics(rec: rr.RecordingStream, e: str, d: FaceDesign, *, with_design:
         _style(rec, f"{e}/scene/moving/layer{k}", rr.LineStrips2D, _MOVING_COLORS[k % 2], _LINE)
         _style(rec, f"{e}/scene/target/layer{k}", rr.LineStrips2D, _TARGET_COLOR, _THIN)
     _style(rec, f"{e}/scene/pivots", rr.Points2D, _PIVOT_COLOR, rr.Radius.ui_points(4.0))
+    _style(rec, f"{e}/scene/pivot_path", rr.LineStrips2D, _PIVOT_COLOR, _THIN)
     _style(rec, f"{e}/scene/contacts", rr.Points2D, _CONTACT_COLOR, rr.Radius.ui_points(4.0))
     _style(rec, f"{e}/scene/normals", rr.Arrows2D, _CONTACT_COLOR, _THIN)
     rec.log(
@@ -486,12 +530,64 @@ def log_prediction(
     _log_statics(rec, e, d, with_design=design)
     first = _indexes(1, descent[:1], ros_stamp_ns)
     base_d, moving_d = _log_outlines(rec, e, prediction, (phi_b, phi_m, y_m), idx, first)
-    _log_pivots(rec, e, prediction.x0, y_m, idx)
+    _log_pivots(rec, e, prediction.x0, y_m, idx, first)
     _log_contacts(rec, e, prediction, n, has_path, idx)
     gap = _gap(d, base_d, moving_d) * d.width
     series = {"phi_b": phi_b, "phi_m": phi_m, "descent": descent, "gap": gap}
     _log_series(rec, e, phase, series, idx)
     _log_text(rec, e, prediction, phase, descent, ros_stamp_ns)
+
+
+def log_verdict(
+    rec: rr.RecordingStream,
+    prediction: Prediction,
+    *,
+    accepted: bool,
+    ros_stamp_ns: int,
+    seat_probability: float | None = None,
+    entity: str = "xface",
+) -> None:
+    """Log what a node answered for one pose as scalar series on ``ros2_timestamp``.
+
+    One row per prediction at the pose's stamp, under ``{entity}/verdict``: ``outcome_code``
+    (the :class:`~xface_core.Outcome` value), ``accepted`` (1 or 0: the node's decision,
+    which may also ask for a margin), ``seat_probability`` when given, the query pose
+    ``input/{x0,theta0,y_start}`` (design unit, rad) and, when the prediction has them, the
+    margins ``margin/{lateral_minus,lateral_plus,angle_minus,angle_plus}`` (design unit,
+    rad; an infinite margin, no flip within the searched range, is left out of that row).
+
+    Examples
+    --------
+    >>> from xface_core import predict, x_face
+    >>> rec = new_recording(recording_id="doc")
+    >>> p = predict(x_face(0.25, 2.0), 0.3, 0.2, margins=True)
+    >>> log_verdict(rec, p, accepted=p.seated, ros_stamp_ns=1_700_000_000_000_000_000)
+    """
+    _check_stamp(ros_stamp_ns)
+    if ros_stamp_ns is None:
+        raise XfaceValueError("log_verdict needs the pose's ros_stamp_ns")
+    e = _root(entity)
+    at = np.array([ros_stamp_ns], dtype=np.int64).astype("datetime64[ns]")
+    stamp = rr.TimeColumn("ros2_timestamp", timestamp=at)
+    values: dict[str, float] = {
+        "outcome_code": float(int(prediction.outcome)),
+        "accepted": 1.0 if accepted else 0.0,
+        "input/x0": prediction.x0,
+        "input/theta0": prediction.theta0,
+        "input/y_start": prediction.y_start,
+    }
+    if seat_probability is not None:
+        values["seat_probability"] = float(seat_probability)
+    m = prediction.margins
+    if m is not None:
+        for name in ("lateral_minus", "lateral_plus", "angle_minus", "angle_plus"):
+            value = float(getattr(m, name))
+            if math.isfinite(value):
+                values[f"margin/{name}"] = value
+    for name, value in values.items():
+        rec.send_columns(
+            f"{e}/verdict/{name}", indexes=[stamp], columns=rr.Scalars.columns(scalars=[value])
+        )
 
 
 def _check_stamp(ros_stamp_ns: object) -> None:
@@ -550,10 +646,22 @@ def _target_outline(d: FaceDesign, k: int, x0: float) -> FloatArray:
 
 
 def _log_pivots(
-    rec: rr.RecordingStream, e: str, x0: float, y_m: FloatArray, idx: list[rr.TimeColumn]
+    rec: rr.RecordingStream,
+    e: str,
+    x0: float,
+    y_m: FloatArray,
+    idx: list[rr.TimeColumn],
+    first: list[rr.TimeColumn],
 ) -> None:
-    """Base pivot (the origin) and moving pivot (x0, y_m) per sample."""
+    """Base pivot (the origin) and moving pivot (x0, y_m) per sample; the moving pivot's
+    whole path as one line at the first sample (``first``)."""
     n = y_m.size
+    track = np.column_stack((np.full(n, x0), y_m))
+    rec.send_columns(
+        f"{e}/scene/pivot_path",
+        indexes=first,
+        columns=rr.LineStrips2D.columns(strips=[track]).partition([1]),
+    )
     pivots = np.zeros((n, 2, 2))
     pivots[:, 1, 0] = x0
     pivots[:, 1, 1] = y_m

@@ -32,6 +32,7 @@ from xface_core.viz.recording import (
     log_acceptance_map,
     log_design,
     log_prediction,
+    log_verdict,
     new_recording,
 )
 
@@ -592,3 +593,63 @@ def test_real_map_summary_states_m(tmp_path: Path, real_map: AcceptanceMap) -> N
 def test_real_map_recording_passes_rrd_verify(tmp_path: Path, real_map: AcceptanceMap) -> None:
     result = rerun_cli("rrd", "verify", record_map(tmp_path, real_map))
     assert result.returncode == 0, result.stderr
+
+
+# --- what a reviewer reads off a node's recording ------------------------------------------------
+
+
+def test_the_pivot_path_is_the_moving_pivots_track(tmp_path: Path, seated: Prediction) -> None:
+    path = record(tmp_path, seated)
+    [[strip]] = column(path, "/xface/scene/pivot_path", "LineStrips2D:strips")  # one row, one strip
+    track = np.asarray(strip)
+    assert np.allclose(track[:, 0], seated.x0)
+    assert np.allclose(track[:, 1], path_of(seated).pivot_m[:, 1])
+
+
+def test_the_design_is_stored_as_values(tmp_path: Path) -> None:
+    design = v_face(0.5, 1.0, width=0.05)
+    path = record(tmp_path, predict(design, 0.01, 0.1))
+    assert column(path, "/xface/design/values", "face", static=True) == [["V"]]
+    assert column(path, "/xface/design/values", "h_over_d", static=True) == [[0.5]]
+    [[mated]] = column(path, "/xface/design/values", "mated_distance", static=True)
+    assert mated == pytest.approx(design.mated_distance * 0.05)
+
+
+def _verdicts(tmp_path: Path, predictions: list[tuple[Prediction, bool]]) -> Path:
+    path = tmp_path / "node.rrd"
+    rec = new_recording(recording_id="xface-test", path=path)
+    for k, (p, accepted) in enumerate(predictions):
+        log_verdict(rec, p, accepted=accepted, ros_stamp_ns=STAMP_NS + k * 1_000_000)
+    rec.disconnect()
+    return path
+
+
+def test_verdicts_are_one_row_per_prediction_on_the_ros_timeline(tmp_path: Path) -> None:
+    design = x_face(0.25, 2.0)
+    runs = [(predict(design, 0.3, 0.2, margins=True), True), (predict(design, 0.9, 0.8), False)]
+    path = _verdicts(tmp_path, runs)
+    codes = [v[0] for v in column(path, "/xface/verdict/outcome_code", "Scalars:scalars")]
+    assert codes == [float(p.outcome) for p, _ in runs]
+    accepted = [v[0] for v in column(path, "/xface/verdict/accepted", "Scalars:scalars")]
+    assert accepted == [1.0, 0.0]
+    x0 = [v[0] for v in column(path, "/xface/verdict/input/x0", "Scalars:scalars")]
+    assert x0 == [0.3, 0.9]
+    assert "ros2_timestamp" in timelines(path)
+    assert "step" not in timelines(path)
+
+
+def test_verdict_margins_are_the_predictions_margins(tmp_path: Path) -> None:
+    p = predict(x_face(0.25, 2.0), 0.3, 0.2, margins=True)
+    assert p.margins is not None
+    path = _verdicts(tmp_path, [(p, True)])
+    [[angle]] = column(path, "/xface/verdict/margin/angle_plus", "Scalars:scalars")
+    assert angle == p.margins.angle_plus
+
+
+def test_a_verdict_needs_its_stamp(seated: Prediction) -> None:
+    with pytest.raises(XfaceValueError, match="ros_stamp_ns"):
+        log_verdict(new_recording(), seated, accepted=True, ros_stamp_ns=None)  # type: ignore[arg-type]
+
+
+def test_the_node_tab_opens_on_the_ros_timeline() -> None:
+    assert type(default_blueprint(active="node")).__name__ == "Blueprint"
