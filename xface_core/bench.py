@@ -27,6 +27,7 @@ import numpy as np
 import numpy.typing as npt
 
 from .contact import clear_cache
+from .errors import XfaceValueError
 from .geometry import FaceDesign, make_face
 from .grids import theta_grid, x0_grid
 from .outcome import Outcome
@@ -262,7 +263,11 @@ def _targets(quick: bool, repeats: int) -> list[str]:
 def run_bench(args: argparse.Namespace) -> int:
     """Entry point of ``xface bench``."""
     out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    if not out.parent.is_dir():
+        # Only the output folder itself is made: a typo in a parent would otherwise grow a
+        # whole tree somewhere unexpected.
+        raise XfaceValueError(f"--out {str(out)!r}: the folder {str(out.parent)!r} does not exist")
+    out.mkdir(exist_ok=True)
     quick = bool(args.quick)
     repeats = 3 if quick else 5
     designs = [make_face(*d) for d in (BENCH_DESIGNS[:2] if quick else BENCH_DESIGNS)]

@@ -15,16 +15,19 @@ import argparse
 import importlib
 import json
 import math
+import os
 import sys
 from collections.abc import Sequence
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
 
 from .cli_study import add_study_commands
 from .errors import XfaceError, XfaceValueError
+from .facefile import load_face
 from .frames import NotFacingError, check_facing
-from .geometry import make_face
+from .geometry import FaceDesign, make_face
 from .grids import ThetaGridKind
 from .outcome import Outcome
 from .paper import PAPER_MEAN_RATIO_XS, PAPER_MEAN_RATIO_XV, mean_ratio, paper_table
@@ -71,6 +74,13 @@ def _check_viz(args: argparse.Namespace) -> None:
             raise _VizMissing(option) from None
 
 
+def _check_workers(args: argparse.Namespace) -> None:
+    """``--workers``, where a command has it, counts processes: at least one."""
+    workers = getattr(args, "workers", None)
+    if workers is not None and workers < 1:
+        raise XfaceValueError(f"--workers must be >= 1, got {workers}")
+
+
 def _check_crosscheck(args: argparse.Namespace) -> None:
     """Import the cross-check (and so pymunk) before anything runs, if the command needs it."""
     if args.command != "crosscheck":
@@ -83,15 +93,54 @@ def _check_crosscheck(args: argparse.Namespace) -> None:
         raise _CrosscheckMissing from None
 
 
-def _design_args(
-    p: argparse.ArgumentParser, *, face_choices: Sequence[str] = ("X", "V", "S")
-) -> None:
-    p.add_argument("--face", type=str.upper, choices=face_choices, default="X")
-    p.add_argument("--h-over-d", type=float, default=0.25, help="profile height H / width D")
-    p.add_argument("--rp", type=float, default=2.0, help="pivot to profile base, in widths D")
-    p.add_argument("--width", type=float, default=1.0, help="face width D (length unit)")
+#: The built-in design the commands default to: the node's (config/xface.yaml).
+DEFAULT_H_OVER_D = 0.25
+DEFAULT_R_P = 1.0
+
+
+def _face_args(p: argparse.ArgumentParser) -> None:
+    """--face/--h-over-d/--rp, or --face-file (a connector of one's own)."""
+    p.add_argument("--face", type=str.upper, choices=("X", "V", "S"), default="X")
+    p.add_argument(
+        "--h-over-d", type=float, default=DEFAULT_H_OVER_D, help="profile height H / width D"
+    )
+    p.add_argument(
+        "--rp", type=float, default=DEFAULT_R_P, help="pivot to profile base, in widths D"
+    )
+    p.add_argument(
+        "--face-file",
+        default=None,
+        help="a face file (YAML, docs/facefile.md) instead of --face/--h-over-d/--rp",
+    )
+
+
+def _design_args(p: argparse.ArgumentParser) -> None:
+    _face_args(p)
+    p.add_argument(
+        "--width",
+        type=float,
+        default=None,
+        help="face width D (length unit; default 1, or the face file's)",
+    )
     _physics_args(p)
     p.add_argument("--json", action="store_true", help="machine-readable output")
+
+
+def _design(args: argparse.Namespace) -> FaceDesign:
+    """The command's design: the face file's, or the built-in face (errors exit 2)."""
+    if args.face_file is not None:
+        design = load_face(args.face_file)
+        if getattr(args, "width", None) is not None:
+            design = replace(design, width=args.width)
+        return design
+    width = getattr(args, "width", None)
+    return make_face(args.face, args.h_over_d, args.rp, width=1.0 if width is None else width)
+
+
+def _design_label(design: FaceDesign) -> str:
+    if design.kind == "custom":
+        return f"custom face D={design.width:g}"
+    return f"{design.kind}-Face H/D={design.h_over_d:g} r_p={design.r_p:g} D={design.width:g}"
 
 
 def _physics_args(p: argparse.ArgumentParser) -> None:
@@ -145,15 +194,17 @@ def _cmd_predict(args: argparse.Namespace) -> int:
         print(f"xface: {Outcome.INVALID_INPUT.name}: {exc}", file=sys.stderr)
         return 2
     physics = _physics(args)
-    design = make_face(args.face, args.h_over_d, args.rp, width=args.width)
-    pred = predict(
-        design,
-        args.x0,
-        args.theta0,
-        y_start=args.y_start,
-        physics=physics,
-        margins=not args.no_margins,
-    )
+    design = _design(args)
+    pose = {"x0": args.x0, "theta0": args.theta0, "y_start": args.y_start, "physics": physics}
+    pred = predict(design, **pose, margins=False)
+    if pred.outcome is Outcome.INVALID_INPUT:
+        # Nothing was simulated: no margins, and the exit code says the input was refused.
+        if args.json:
+            print(json.dumps(_prediction_json(pred), default=_json_default))
+        print(f"xface: {Outcome.INVALID_INPUT.name}: {pred.reason}", file=sys.stderr)
+        return 2
+    if not args.no_margins:
+        pred = predict(design, **pose, margins=True)
     if args.rrd:
         from .viz.recording import log_prediction, new_recording
 
@@ -164,8 +215,8 @@ def _cmd_predict(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(_prediction_json(pred), default=_json_default))
         return 0
-    w = design.width
-    print(f"{args.face}-Face H/D={design.h_over_d:g} r_p={design.r_p:g} D={w:g}")
+    unit = "D" if design.width == 1.0 else "length units"
+    print(_design_label(design))
     print(f"start     x0={pred.x0:+.6g}  theta0={pred.theta0:+.6g} rad  y={pred.y_start:.6g}")
     print(f"outcome   {pred.outcome.name}: {pred.reason}")
     print(
@@ -175,12 +226,13 @@ def _cmd_predict(args: argparse.Namespace) -> int:
     if pred.margins is not None:
         m = pred.margins
         print(
-            f"margins   lateral -{m.lateral_minus:.4g} / +{m.lateral_plus:.4g}   "
+            f"margins   lateral -{m.lateral_minus:.4g} / +{m.lateral_plus:.4g} {unit}   "
             f"angle -{m.angle_minus:.4g} / +{m.angle_plus:.4g} rad"
         )
     c = pred.counters
     path = pred.path
-    phases = "" if path is None else ", ".join(sorted({_phase_name(p) for p in path.phase}))
+    # In the order the path goes through them (a phase met twice is named once).
+    phases = "" if path is None else ", ".join(dict.fromkeys(_phase_name(p) for p in path.phase))
     print(
         f"path      {0 if path is None else len(path)} samples, {c.steps} steps, "
         f"{c.events} events, {c.contact_changes} contact changes; phases: {phases}"
@@ -235,7 +287,7 @@ def _rect_json(amap: AcceptanceMap, rect: Any) -> dict[str, Any] | None:
 
 def _cmd_map(args: argparse.Namespace) -> int:
     physics = _physics(args)
-    design = make_face(args.face, args.h_over_d, args.rp, width=args.width)
+    design = _design(args)
     amap = acceptance_map(
         design,
         grid=args.grid,
@@ -271,11 +323,13 @@ def _cmd_map(args: argparse.Namespace) -> int:
         Outcome.UNRESOLVED: "?",
     }
     print(
-        f"{args.face}-Face H/D={design.h_over_d:g} r_p={design.r_p:g}: M = {amap.M} of "
-        f"{amap.outcomes.size}  (rows x0 from {amap.x0[0]:g} to {amap.x0[-1]:g}, "
-        f"columns theta0 from {amap.theta0[0]:.4g} to {amap.theta0[-1]:.4g} rad)"
+        f"{_design_label(design)}: M = {amap.M} of {amap.outcomes.size}  (rows x0 from "
+        f"{amap.x0[-1]:g} down to {amap.x0[0]:g}, columns theta0 from {amap.theta0[0]:.4g} "
+        f"to {amap.theta0[-1]:.4g} rad)"
     )
-    for i, row in enumerate(amap.outcomes):
+    # Largest x0 on top, as in the PNG picture (x0 up, theta0 to the right).
+    for i in range(len(amap.x0) - 1, -1, -1):
+        row = amap.outcomes[i]
         print(f"{amap.x0[i]:+8.4f} " + "".join(symbols[Outcome(int(c))] for c in row))
     print("legend: " + "  ".join(f"{s} {o.name}" for o, s in symbols.items()))
     for label, rect in (("guaranteed", amap.guaranteed), ("centred", amap.centred)):
@@ -374,13 +428,11 @@ def _crosscheck_cells(args: argparse.Namespace) -> list[tuple[float, float]] | N
 
 
 def _cmd_crosscheck(args: argparse.Namespace) -> int:
-    from dataclasses import replace
-
     from .crosscheck.compare import crosscheck, result_json, stderr_progress
     from .crosscheck.scene import DEFAULT_ENGINE
 
     physics = _physics(args)
-    design = make_face(args.face, args.h_over_d, args.rp)
+    design = _design(args)
     if args.grid is not None and args.grid < 3:
         raise XfaceValueError(f"--grid must be an odd integer >= 3, got {args.grid}")
     settings = DEFAULT_ENGINE
@@ -401,19 +453,19 @@ def _cmd_crosscheck(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(result_json(result), default=_json_default))
         return 0
-    for line in _crosscheck_lines(args.face, result):
+    for line in _crosscheck_lines(result):
         print(line)
     return 0
 
 
-def _crosscheck_lines(face: str, r: Any) -> list[str]:
+def _crosscheck_lines(r: Any) -> list[str]:
     """The plain-text report of a :class:`~xface_core.crosscheck.CrosscheckResult`."""
     d, s = r.design, r.settings
     where = f"{r.grid} x {r.grid} grid" if r.grid is not None else "random cells"
     conv = {None: "", True: ", converged", False: ", NOT converged"}[r.converged]
     lines = [
         (
-            f"crosscheck {face}-Face H/D={d.h_over_d:g} r_p={d.r_p:g} "
+            f"crosscheck {_design_label(d)} "
             f"(damping ratio {r.physics.damping_ratio:g}, friction {r.physics.friction:g}): "
             f"{r.n_cells} cells ({where}), {r.seconds:.0f} s"
         ),
@@ -508,9 +560,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser(
         "crosscheck", help="compare xface with an independent engine (Chipmunk2D), cell by cell"
     )
-    p.add_argument("--face", type=str.upper, choices=("X", "V", "S"), default="X")
-    p.add_argument("--h-over-d", type=float, default=0.25, help="profile height H / width D")
-    p.add_argument("--rp", type=float, default=2.0, help="pivot to profile base, in widths D")
+    _face_args(p)
     _physics_args(p)
     cells = p.add_mutually_exclusive_group()
     cells.add_argument("--grid", type=int, default=None, help="nodes per axis (odd; default 41)")
@@ -540,9 +590,21 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``xface`` console script."""
     args = build_parser().parse_args(argv)
     try:
+        _check_workers(args)
         _check_viz(args)
         _check_crosscheck(args)
         result: int = args.func(args)
+        sys.stdout.flush()  # a closed pipe shows here, inside the handler, not at exit
+    except BrokenPipeError:
+        # The reader went away (``xface ... | head``): nothing more to say, and Python's
+        # own flush at exit must not raise again on the dead descriptor.
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return 141  # 128 + SIGPIPE, what a shell reports for a writer killed by the pipe
+    except OSError as exc:  # an unwritable --out/--png/--rrd, a missing file, a full disk
+        where = f"{exc.filename}: " if exc.filename else ""
+        print(f"xface: error: {where}{exc.strerror or exc}", file=sys.stderr)
+        return 2
     except _VizMissing as exc:
         print(f"xface: {exc.args[0]} needs the viz extra: {_VIZ_HINT}", file=sys.stderr)
         return 2

@@ -66,6 +66,12 @@ PAPER_H_OVER_D: Final[tuple[float, ...]] = (
 PAPER_R_P: Final[tuple[float, ...]] = tuple(float(r) for r in range(11))
 
 
+#: The largest grid, nodes per axis: 1001 x 1001 is a million simulations (about 15 s for a
+#: map on two cores); beyond it a map's arrays alone grow past what a workstation holds
+#: (100 001 nodes per axis asked for 74.5 GiB), so a larger grid is refused up front.
+MAX_GRID_SIZE: Final[int] = 1001
+
+
 def _half_count(n: int) -> int:
     """Validate a grid size and return ``(n - 1) // 2``."""
     if isinstance(n, bool):
@@ -76,6 +82,14 @@ def _half_count(n: int) -> int:
         raise XfaceValueError(f"grid size must be an odd integer >= 3, got {n!r}") from None
     if size < 3 or size % 2 == 0:
         raise XfaceValueError(f"grid size must be an odd integer >= 3, got {size}")
+    if size > MAX_GRID_SIZE:
+        # The map's pose arrays and results take about 40 bytes per node (x0, theta0, start
+        # height, outcome, angles) before a single simulation runs.
+        gib = 40.0 * size * size / 2**30
+        raise XfaceValueError(
+            f"grid size {size} is {size * size:.3g} simulations and about {gib:.3g} GiB of "
+            f"arrays; the largest grid is {MAX_GRID_SIZE} nodes per axis"
+        )
     return (size - 1) // 2
 
 

@@ -26,7 +26,7 @@ from .designspace import DesignPoint, DesignSpace
 from .errors import XfaceValueError
 from .executors import ClientLike, execute
 from .geometry import FaceDesign, x_face
-from .grids import PAPER_GRID_SIZE, ThetaGridKind, theta_grid
+from .grids import MAX_GRID_SIZE, PAPER_GRID_SIZE, ThetaGridKind, theta_grid
 from .physics import DEFAULT_SETTINGS, Physics, SolverSettings
 from .regions import CellRect
 from .seatprob import PoseNoise, mean_seat_probability
@@ -53,7 +53,7 @@ __all__ = [
 ]
 
 #: Largest pose grid of a study (nodes per axis): 1001 x 1001 is 1e6 runs per design.
-MAX_STUDY_GRID = 1001
+MAX_STUDY_GRID = MAX_GRID_SIZE
 
 #: Most local worker processes (beyond one machine's cores, use a cluster).
 MAX_LOCAL_WORKERS = 1024

@@ -269,6 +269,8 @@ def m_table(
             raise XfaceValueError("the closed-form bound exists for the V and S faces only")
         m = bound_table(face, theta_grid=theta_kind, h_over_d=h_over_d, r_p=r_p, n=grid)  # type: ignore[arg-type]
     elif method == "sim":
+        if workers is not None and workers < 1:
+            raise XfaceValueError(f"workers must be >= 1, got {workers}")
         n_workers = (os.cpu_count() or 1) if workers is None else workers
         # One thread per process: the processes already use every core.
         jobs = [

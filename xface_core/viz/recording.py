@@ -250,6 +250,11 @@ def new_recording(
         keeps one layout per application id: give maps their own id (``"xface-map"``) so a
         viewer that shows a prediction opens a map on the map tab.
 
+    Raises
+    ------
+    XfaceValueError
+        The file cannot be created (no such folder, no permission).
+
     Returns
     -------
     rerun.RecordingStream
@@ -286,7 +291,11 @@ def new_recording(
         sinks.append(rr.GrpcSink(url))
     if sinks:
         # A default, not an active blueprint: a user's own layout in a running viewer stays.
-        rec.set_sinks(*sinks, default_blueprint=layout)
+        try:
+            rec.set_sinks(*sinks, default_blueprint=layout)
+        except RuntimeError as exc:  # rerun's own error for a file it cannot create
+            where = f"the recording {str(path)!r}" if path is not None else f"the viewer {url!r}"
+            raise XfaceValueError(f"cannot write {where}: {exc}") from exc
     elif layout is not None:
         rec.send_blueprint(layout, make_active=False, make_default=True)
     return rec
