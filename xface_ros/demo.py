@@ -5,10 +5,14 @@
 1. starts ``xface_predictor`` as a separate process (``python -m xface_ros`` with
    config/xface.yaml when this is a source checkout, the built-in defaults otherwise) with a
    rerun recording switched on when :mod:`xface_core.viz.recording` is available;
-2. runs the bundled :class:`~xface_ros.pose_source.PoseSource` (a sweep of poses, some of
-   which seat and some not) and prints every prediction as it arrives;
-3. after ``--duration`` seconds (default 15) or on Ctrl-C, stops the node with SIGINT (which
-   finishes the recording) and exits 0 when the node exited cleanly and predictions arrived.
+2. runs the bundled :class:`~xface_ros.pose_source.PoseSource` once through its sweep (poses
+   that seat, jam, lie out of reach or miss the base, and one invalid input) and prints every
+   answer as it arrives, one word per meaning: ``accepted``, ``will not seat``, ``invalid``;
+3. asks the planner service (``predict``, nav_msgs/GetPlan) about one pose and shows the
+   answer;
+4. stops the node with SIGINT (which finishes the recording) after the sweep, after
+   ``--duration`` seconds (default 15) or on Ctrl-C, and exits 0 when the node exited cleanly
+   and predictions arrived.
 
 DDS discovery stays on this host (``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST``) in a ROS domain
 of its own: ``ROS_DOMAIN_ID`` when set (``make demo`` sets one), else ``--domain-id``.
@@ -27,6 +31,7 @@ import time
 from collections import Counter
 from pathlib import Path
 from types import FrameType
+from typing import Any
 
 __all__ = ["main"]
 
@@ -101,7 +106,7 @@ def main(argv: list[str] | None = None) -> int:
     from rclpy.signals import SignalHandlerOptions
 
     from xface_ros.node import RESULT_QOS
-    from xface_ros.pose_source import PoseSource
+    from xface_ros.pose_source import DEMO_SWEEP, PoseSource
 
     recording_available = importlib.util.find_spec("xface_core.viz.recording") is not None
     record_path = None if args.no_record or not recording_available else args.record.resolve()
@@ -123,28 +128,30 @@ def main(argv: list[str] | None = None) -> int:
     started = time.monotonic()
     lock = threading.Lock()
 
+    ready_at = [started]  # the clock of the printed answers starts when the node is ready
+
     def show(status: DiagnosticStatus) -> None:
         values = {kv.key: kv.value for kv in status.values}
         outcome = values.get("outcome", "?")
         is_accepted = values.get("accepted") == "true"
-        t = time.monotonic() - started
+        t = time.monotonic() - ready_at[0]
         with lock:
             counts[outcome] += 1
             if "input_error" not in values:
                 accepted[is_accepted] += 1
         if "input_error" in values:
-            print(f"[{t:5.1f} s] input rejected: {status.message}", flush=True)
+            print(f"{t:6.1f}  {'':>9} {'':>8}    {'-':<12} {'invalid':<13} {status.message}")
             return
         margin = values.get("margin_m", "")
-        # The margin of a rejected pose is the distance to another outcome, not to a seat.
-        extra = f"margin {float(margin):.4f} m" if margin and is_accepted else ""
-        verdict = "accepted" if is_accepted else "rejected"
+        # The margin of a refused pose is the distance to another outcome, not to a seat.
+        extra = f"{float(margin):.4f}" if margin and is_accepted else ""
+        verdict = "accepted" if is_accepted else "will not seat"
         x0, theta0 = float(values["x0_m"]), float(values["theta0_rad"])
         compute_ms = float(values["compute_time_ms"])
-        why = "" if is_accepted else "  " + status.message.split(": ", 1)[-1]
+        why = "" if is_accepted else status.message.split(": ", 1)[-1]
         print(
-            f"[{t:5.1f} s] x0={x0:+.4f} m theta0={theta0:+.3f} rad -> {outcome:<12} "
-            f"{verdict:<8} {extra:<20} ({compute_ms:.1f} ms){why}",
+            f"{t:6.1f}  {x0:+9.4f} {theta0:+8.3f} -> {outcome:<12} {verdict:<13} {extra:>8} "
+            f"{compute_ms:8.1f}  {why}",
             flush=True,
         )
 
@@ -159,10 +166,15 @@ def main(argv: list[str] | None = None) -> int:
         spin_thread = threading.Thread(target=executor.spin, daemon=True)
         spin_thread.start()
         deadline = time.monotonic() + 300.0  # a fresh checkout compiles the simulator first
+        next_note = time.monotonic() + 5.0
         while not client.service_is_ready():
             if node.poll() is not None or time.monotonic() > deadline:
                 print("xface demo: the node did not come up", file=sys.stderr, flush=True)
                 return 1
+            if time.monotonic() >= next_note:  # say that the silence is the compiler
+                waited = time.monotonic() - started
+                print(f"xface demo: still starting ({waited:.0f} s; compiling)", flush=True)
+                next_note += 5.0
             time.sleep(0.1)
         source = PoseSource(
             parameter_overrides=[
@@ -170,11 +182,20 @@ def main(argv: list[str] | None = None) -> int:
                 *(Parameter(k, value=v) for k, v in _shared_parameters(args.params_file).items()),
             ]
         )
+        ready_at[0] = time.monotonic()
+        print(f"xface demo: node ready after {ready_at[0] - started:.1f} s", flush=True)
+        print(f"{'t (s)':>6}  {'x0 (m)':>9} {'theta0':>8}    {'outcome':<12} {'answer':<13} "
+              f"{'margin':>8} {'ms':>8}  why")  # fmt: skip
         executor.add_node(source)
-        print(f"xface demo: node ready after {time.monotonic() - started:.1f} s", flush=True)
         end = time.monotonic() + args.duration
         while time.monotonic() < end and node.poll() is None:
+            with lock:
+                answered = sum(counts.values())
+            if answered >= len(DEMO_SWEEP):  # the whole sweep once: every kind of answer
+                break
             time.sleep(0.1)
+        executor.remove_node(source)
+        _ask_planner(client, source.pose_of(*DEMO_SWEEP[1]))
         if node.poll() is not None:
             print(f"xface demo: the node exited early ({node.returncode})", file=sys.stderr)
             return 1
@@ -189,19 +210,43 @@ def main(argv: list[str] | None = None) -> int:
         predicted = accepted[True] + accepted[False]
         print(
             f"xface demo: {predicted} predictions ({accepted[True]} accepted, "
-            f"{accepted[False]} not), {sum(counts.values()) - predicted} inputs rejected; "
+            f"{accepted[False]} will not seat), {sum(counts.values()) - predicted} invalid; "
             + ", ".join(f"{name} {n}" for name, n in sorted(counts.items())),
             flush=True,
         )
         if record_path is not None:
             size = record_path.stat().st_size if record_path.exists() else 0
             print(f"xface demo: recording {record_path} ({size} bytes)")
-            print(f"xface demo: view it with `rerun {record_path}`")
+            # The viewer comes with the venv: name it by its path, so the line runs as
+            # printed without activating the venv.
+            viewer = Path(sys.executable).with_name("rerun")
+            command = str(viewer) if viewer.exists() else "rerun"
+            print(f"xface demo: view it with: {command} {record_path}")
         elif not recording_available:
             print("xface demo: no recording (xface_core.viz.recording is not available)")
         print(f"xface demo: node exited with code {node_code}", flush=True)
         code = 0 if (node_code == 0 and predicted > 0) else 1
     return code
+
+
+def _ask_planner(client: Any, start: Any) -> None:
+    """One planner query (nav_msgs/GetPlan on ``predict``) and its answer: a plan is the
+    path to the seat, an empty plan a refusal (docs/ros.md)."""
+    from nav_msgs.srv import GetPlan
+
+    request = GetPlan.Request(start=start)
+    x = start.pose.position.x
+    print(f"xface demo: planner query GetPlan(start x={x:+.4f} m, ...) on predict", flush=True)
+    future = client.call_async(request)
+    deadline = time.monotonic() + 30.0
+    while not future.done() and time.monotonic() < deadline:
+        time.sleep(0.05)
+    if not future.done():
+        print("xface demo: the planner query got no answer within 30 s", flush=True)
+        return
+    poses = future.result().plan.poses
+    answer = f"a plan of {len(poses)} poses to the seat" if poses else "an empty plan (refused)"
+    print(f"xface demo: planner answer: {answer}", flush=True)
 
 
 def _stop(node: subprocess.Popen[bytes]) -> int:

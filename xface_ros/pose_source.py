@@ -3,7 +3,7 @@
 Each pose is given in the paper's normalised units (x0 / D, theta0 in rad) and published as
 the moving pivot frame in the base frame (see :mod:`xface_core.frames`), at a height of
 ``start_widths`` face widths, clear of contact. The default sweep mixes poses that seat with
-poses that jam, miss the base or lie out of reach.
+poses that jam, miss the base or lie out of reach, and one input the node refuses.
 
 Run alone (with the node started separately, same domain)::
 
@@ -38,6 +38,7 @@ DEMO_SWEEP: tuple[tuple[float, float], ...] = (
     (2.5, 0.0),  # beyond the mated pivot distance L = 2.25 D: OUT_OF_REACH
     (0.0, 1.2),  # steep angle: jams (BAD_MATE)
     (1.5, 0.3),  # passes beside the base: NO_CONTACT
+    (0.0, 2.0),  # faces turned away from each other (|theta0| > pi/2): an invalid input
 )
 
 

@@ -28,8 +28,10 @@ def test_demo_shows_accepted_and_rejected_predictions_and_records(
     assert run.returncode == 0, out
     assert f"ROS_DOMAIN_ID={ros_domain_id}" in out
     assert re.search(r"-> SEATED +accepted", out), out
-    assert re.search(r"-> (BAD_MATE|OUT_OF_REACH|NO_CONTACT) +rejected", out), out
-    summary = re.search(r"(\d+) predictions \((\d+) accepted, (\d+) not\)", out)
+    assert re.search(r"-> (BAD_MATE|OUT_OF_REACH|NO_CONTACT) +will not seat", out), out
+    assert re.search(r" invalid +INVALID_INPUT: not_facing", out), out
+    assert "planner answer: a plan of" in out
+    summary = re.search(r"(\d+) predictions \((\d+) accepted, (\d+) will not seat\)", out)
     assert summary is not None, out
     assert int(summary[2]) > 0
     assert int(summary[3]) > 0
