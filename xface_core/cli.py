@@ -17,6 +17,7 @@ import json
 import math
 import os
 import sys
+import time
 from collections.abc import Sequence
 from dataclasses import replace
 from typing import Any
@@ -72,6 +73,44 @@ def _check_viz(args: argparse.Namespace) -> None:
             if (exc.name or "").partition(".")[0] == __package__:
                 raise  # a bug of ours, not a missing extra
             raise _VizMissing(option) from None
+
+
+class _TerminalProgress:
+    """A one-line progress bar on stderr: ``label [####....] done/total unit, time left``."""
+
+    def __init__(self, label: str, unit: str) -> None:
+        self.label, self.unit = label, unit
+        self.started = time.monotonic()
+        self.shown = False
+
+    def __call__(self, done: int, total: int) -> None:
+        width = 30
+        filled = width * done // max(total, 1)
+        elapsed = time.monotonic() - self.started
+        eta = f", about {elapsed / done * (total - done):.0f} s left" if done else ""
+        sys.stderr.write(
+            f"\r{self.label} [{'#' * filled}{'.' * (width - filled)}] {done}/{total} "
+            f"{self.unit}, {elapsed:.0f} s{eta} "
+        )
+        sys.stderr.flush()
+        self.shown = True
+
+    def close(self) -> None:
+        if self.shown:
+            sys.stderr.write("\n")
+            sys.stderr.flush()
+
+
+def _progress(args: argparse.Namespace, label: str, unit: str) -> _TerminalProgress | None:
+    """A bar for a long command, unless ``--quiet`` or stderr is not a terminal."""
+    if getattr(args, "quiet", False) or not sys.stderr.isatty():
+        return None
+    return _TerminalProgress(label, unit)
+
+
+#: Maps with at least this many nodes per axis show a progress bar (a 201 x 201 map takes a
+#: few seconds on two cores).
+MAP_PROGRESS_GRID = 201
 
 
 def _check_workers(args: argparse.Namespace) -> None:
@@ -288,13 +327,19 @@ def _rect_json(amap: AcceptanceMap, rect: Any) -> dict[str, Any] | None:
 def _cmd_map(args: argparse.Namespace) -> int:
     physics = _physics(args)
     design = _design(args)
-    amap = acceptance_map(
-        design,
-        grid=args.grid,
-        theta_kind=args.theta_grid,
-        physics=physics,
-        coarse=args.coarse,
-    )
+    bar = _progress(args, "map", "poses") if args.grid >= MAP_PROGRESS_GRID else None
+    try:
+        amap = acceptance_map(
+            design,
+            grid=args.grid,
+            theta_kind=args.theta_grid,
+            physics=physics,
+            coarse=args.coarse,
+            progress=bar,
+        )
+    finally:
+        if bar is not None:
+            bar.close()
     if args.png:
         from .viz.mapimage import save_map_png
 
@@ -345,7 +390,9 @@ def _cmd_map(args: argparse.Namespace) -> int:
     return 0
 
 
-def _table_for(face: str, args: argparse.Namespace, physics: Physics) -> MTable:
+def _table_for(
+    face: str, args: argparse.Namespace, physics: Physics, progress: _TerminalProgress | None
+) -> MTable:
     method = args.method
     if method == "bound" and face == "X":
         method = "sim"  # the X-Face has no closed-form bound; the paper simulated it
@@ -356,6 +403,7 @@ def _table_for(face: str, args: argparse.Namespace, physics: Physics) -> MTable:
         theta_kind=theta,
         physics=physics,
         workers=args.workers,
+        progress=progress,
     )
 
 
@@ -367,7 +415,14 @@ def _cmd_table(args: argparse.Namespace) -> int:
             "apply to --method sim"
         )
     faces = ["X", "V", "S"] if args.face == "ALL" else [args.face]
-    tables = {f: _table_for(f, args, physics) for f in faces}
+    tables = {}
+    for f in faces:
+        bar = _progress(args, f"{f}-Face table", "designs") if args.method == "sim" else None
+        try:
+            tables[f] = _table_for(f, args, physics, bar)
+        finally:
+            if bar is not None:
+                bar.close()
     if args.json:
         out = {
             f: {
@@ -541,6 +596,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--png", default=None, help="write a PNG picture of the map")
     p.add_argument("--rrd", default=None, help="write a rerun recording of the map")
+    p.add_argument("--quiet", action="store_true", help="no progress bar on stderr")
     p.set_defaults(func=_cmd_map)
 
     p = sub.add_parser("table", help="the paper's M tables (rows H/D, columns r_p)")
@@ -554,6 +610,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     _physics_args(p)
     p.add_argument("--workers", type=int, default=None, help="processes (default: all cores)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar on stderr")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=_cmd_table)
 

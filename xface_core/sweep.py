@@ -8,7 +8,7 @@ design over the paper's 11 H/D values x 11 r_p values.
 from __future__ import annotations
 
 import os
-from collections.abc import Sequence
+from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from multiprocessing import get_context
@@ -92,6 +92,7 @@ def acceptance_map(
     use_symmetry: bool = True,
     coarse: int | None = None,
     threads: int | None = None,
+    progress: Progress | None = None,
 ) -> AcceptanceMap:
     """Simulate every node of a ``grid x grid`` map (rows x0 from -D to D, columns theta0
     from -pi/2 to pi/2, built from integers so mirrored nodes are exact negatives).
@@ -106,6 +107,9 @@ def acceptance_map(
     nodes of cells with differing corners are simulated. An island of another outcome that
     fits inside one coarse cell without touching its corners is missed, so exact full grids
     (the default) are used for the paper's tables; ``xface bench`` measures the trade.
+
+    ``progress(done, total)``, when given, is called as batches of poses finish (not with
+    ``coarse``); the outcomes do not depend on it.
 
     Examples
     --------
@@ -135,25 +139,17 @@ def acceptance_map(
     elif use_symmetry and design.mirror_symmetric and theta_kind == "symmetric":
         flat = X.size
         half = flat // 2 + 1  # cells k <= centre; cell flat-1-k is the mirror of cell k
-        res = predict_batch(
-            design,
-            X.ravel()[:half] * design.width,
-            T.ravel()[:half],
-            physics=phys,
-            threads=threads,
+        res = _batch_outcomes(
+            design, X.ravel()[:half] * design.width, T.ravel()[:half], phys, threads, progress
         )
         out = np.empty(flat, dtype=np.int8)
-        out[:half] = res.outcome
-        out[half:] = res.outcome[: flat - half][::-1]
+        out[:half] = res
+        out[half:] = res[: flat - half][::-1]
         outcomes = out.reshape(X.shape)
     else:
-        outcomes = predict_batch(
-            design,
-            X * design.width,
-            T,
-            physics=phys,
-            threads=threads,
-        ).outcome
+        outcomes = _batch_outcomes(
+            design, (X * design.width).ravel(), T.ravel(), phys, threads, progress
+        ).reshape(X.shape)
     seated = outcomes == Outcome.SEATED
     return AcceptanceMap(
         design=design,
@@ -163,6 +159,35 @@ def acceptance_map(
         guaranteed=largest_rectangle(seated),
         centred=largest_centred_rectangle(seated),
     )
+
+
+#: Called with (poses or designs done, total) as a long computation goes on.
+Progress = Callable[[int, int], None]
+
+#: Poses per batch when a map reports its progress (a few per second on two cores).
+PROGRESS_CHUNK = 20_000
+
+
+def _batch_outcomes(
+    design: FaceDesign,
+    x0: npt.NDArray[np.float64],
+    theta0: npt.NDArray[np.float64],
+    physics: Physics,
+    threads: int | None,
+    progress: Progress | None,
+) -> npt.NDArray[np.int8]:
+    """Outcomes of flat pose arrays, in chunks that report ``progress`` when it is given
+    (each pose's result is the same whatever the chunking)."""
+    if progress is None:
+        return predict_batch(design, x0, theta0, physics=physics, threads=threads).outcome
+    out = np.empty(x0.size, dtype=np.int8)
+    for start in range(0, x0.size, PROGRESS_CHUNK):
+        stop = min(start + PROGRESS_CHUNK, x0.size)
+        out[start:stop] = predict_batch(
+            design, x0[start:stop], theta0[start:stop], physics=physics, threads=threads
+        ).outcome
+        progress(stop, x0.size)
+    return out
 
 
 def _refined_outcomes(
@@ -248,11 +273,13 @@ def m_table(
     friction: float | None = None,
     settings: SolverSettings | None = None,
     workers: int | None = None,
+    progress: Progress | None = None,
 ) -> MTable:
     """M for every design of a table: simulated (``"sim"``) or the paper's closed-form
     best-case bound (``"bound"``, V and S faces only).
 
     ``workers`` processes share the maps (default: all cores); results do not depend on it.
+    ``progress(done, total)``, when given, is called as each design's map finishes.
 
     Examples
     --------
@@ -276,12 +303,20 @@ def m_table(
         jobs = [
             (face, float(h), float(rp), grid, theta_kind, phys, 1) for h in h_over_d for rp in r_p
         ]
+        values: list[int] = []
         if n_workers <= 1:
-            values = [_map_m(j) for j in jobs]
+            results: Iterable[int] = map(_map_m, jobs)
+            for m_value in results:
+                values.append(m_value)
+                if progress is not None:
+                    progress(len(values), len(jobs))
         else:
             _map_m(jobs[0])  # compile (or load) the engine once before forking
             with ProcessPoolExecutor(n_workers, mp_context=get_context("fork")) as pool:
-                values = list(pool.map(_map_m, jobs, chunksize=4))
+                for m_value in pool.map(_map_m, jobs, chunksize=4):
+                    values.append(m_value)
+                    if progress is not None:
+                        progress(len(values), len(jobs))
         m = np.asarray(values, dtype=np.int64).reshape(len(h_over_d), len(r_p))
     else:
         raise XfaceValueError(f"method must be 'sim' or 'bound', got {method!r}")

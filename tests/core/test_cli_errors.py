@@ -104,3 +104,18 @@ def test_a_closed_pipe_ends_quietly() -> None:
     assert proc.stdout.count("\n") == 1
     assert "Traceback" not in proc.stderr
     assert "BrokenPipe" not in proc.stderr
+
+
+def test_a_table_shows_a_progress_bar_on_a_terminal(
+    capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: True)
+    assert main(["table", "--face", "V", "--workers", "1", "--json"]) == 0
+    err = capsys.readouterr().err
+    assert "V-Face table [" in err
+    assert "121/121 designs" in err
+
+
+def test_no_progress_bar_when_stderr_is_not_a_terminal(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["map", "--grid", "201", "--json"]) == 0
+    assert capsys.readouterr().err == ""

@@ -110,3 +110,18 @@ def test_refined_map_fills_agreeing_cells_and_keeps_coarse_nodes() -> None:
 def test_refinement_needs_a_dividing_odd_coarse_grid(coarse: int) -> None:
     with pytest.raises(xf.XfaceValueError, match="coarse"):
         xf.acceptance_map(xf.x_face(0.25, 2.0), grid=41, coarse=coarse)
+
+
+def test_a_map_reports_its_progress_and_the_same_outcomes() -> None:
+    design = xf.v_face(0.5, 1.0)
+    calls: list[tuple[int, int]] = []
+    with_progress = xf.acceptance_map(design, grid=21, progress=lambda d, t: calls.append((d, t)))
+    assert np.array_equal(with_progress.outcomes, xf.acceptance_map(design, grid=21).outcomes)
+    assert calls[-1][0] == calls[-1][1] > 0
+
+
+def test_a_table_reports_each_design() -> None:
+    calls: list[tuple[int, int]] = []
+    xf.m_table("V", h_over_d=[0.25, 0.5], r_p=[1.0], grid=5, workers=1,
+               progress=lambda d, t: calls.append((d, t)))  # fmt: skip
+    assert calls == [(1, 2), (2, 2)]
