@@ -69,14 +69,14 @@ class Published:
 
 class FakeRecorder:
     def __init__(self, *, fail: bool = False) -> None:
-        self.recorded: list[tuple[Prediction, int]] = []
+        self.recorded: list[tuple[Prediction, int, bool]] = []
         self.fail = fail
         self.path = "fake.rrd"
 
-    def record(self, prediction: Prediction, *, stamp_ns: int) -> None:
+    def record(self, prediction: Prediction, *, stamp_ns: int, accepted: bool) -> None:
         if self.fail:
             raise OSError("disk full")
-        self.recorded.append((prediction, stamp_ns))
+        self.recorded.append((prediction, stamp_ns, accepted))
 
 
 @pytest.fixture(scope="module")
@@ -252,7 +252,7 @@ def test_predictions_are_recorded_and_recording_failures_counted(config: NodeCon
     verdict = worker.process(Received(at_start(0.3, 0.2), receive_ns=NOW_NS))
     assert isinstance(verdict, Predicted)
     assert verdict.prediction.path is not None  # a recording wants the path
-    assert recorder.recorded == [(verdict.prediction, NOW_NS)]
+    assert recorder.recorded == [(verdict.prediction, NOW_NS, verdict.accepted)]
 
     logger = FakeLogger()
     failing = make_worker(config, Published(), recorder=FakeRecorder(fail=True), logger=logger)
