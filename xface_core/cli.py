@@ -116,7 +116,8 @@ MAP_PROGRESS_GRID = 201
 def _check_workers(args: argparse.Namespace) -> None:
     """``--workers``, where a command has it, counts processes: at least one."""
     workers = getattr(args, "workers", None)
-    if workers is not None and workers < 1:
+    # sweep and design check their own range (cli_study: also an upper bound).
+    if args.command in ("table", "crosscheck") and workers is not None and workers < 1:
         raise XfaceValueError(f"--workers must be >= 1, got {workers}")
 
 
@@ -176,10 +177,13 @@ def _design(args: argparse.Namespace) -> FaceDesign:
     return make_face(args.face, args.h_over_d, args.rp, width=1.0 if width is None else width)
 
 
-def _design_label(design: FaceDesign) -> str:
+def _design_label(design: FaceDesign, *, width: bool = True) -> str:
+    """``X-Face H/D=0.25 r_p=1 D=1`` (``custom face D=0.05``); without ``D=`` if not
+    ``width``."""
+    d = f" D={design.width:g}" if width else ""
     if design.kind == "custom":
-        return f"custom face D={design.width:g}"
-    return f"{design.kind}-Face H/D={design.h_over_d:g} r_p={design.r_p:g} D={design.width:g}"
+        return f"custom face{d}"
+    return f"{design.kind}-Face H/D={design.h_over_d:g} r_p={design.r_p:g}{d}"
 
 
 def _physics_args(p: argparse.ArgumentParser) -> None:
@@ -520,7 +524,7 @@ def _crosscheck_lines(r: Any) -> list[str]:
     conv = {None: "", True: ", converged", False: ", NOT converged"}[r.converged]
     lines = [
         (
-            f"crosscheck {_design_label(d)} "
+            f"crosscheck {_design_label(d, width=False)} "
             f"(damping ratio {r.physics.damping_ratio:g}, friction {r.physics.friction:g}): "
             f"{r.n_cells} cells ({where}), {r.seconds:.0f} s"
         ),
