@@ -25,7 +25,11 @@ def example_blocks() -> list[str]:
 
 
 def test_examples_print_a_prediction_a_plan_and_its_reason(launch: Any) -> None:
-    running = launch(wait=False)  # pasted right after starting the node, as a user would
+    # Pasted right after starting the node, as a user would. A generous input timeout: on a
+    # loaded machine the example's pose reached the node 0.67 s after its stamp, and the
+    # node's default 0.5 s then (rightly) called it stale; the docs' examples are what is
+    # under test here, not the staleness rule (tests/ros/test_decision.py).
+    running = launch(wait=False, input_timeout_s=30.0)
     blocks = example_blocks()
     assert len(blocks) == 2
     run = subprocess.run(
@@ -36,6 +40,4 @@ def test_examples_print_a_prediction_a_plan_and_its_reason(launch: Any) -> None:
     first, plan, why = run.stdout.strip().splitlines()[-3:]
     assert first.startswith("b'\\x00' SEATED: ")
     assert plan in ("accepted", "rejected")
-    # Normally "seats"; "stale" only if this loaded machine took longer than input_timeout_s
-    # between the pose's answer and the call.
     assert why.split()[0] in ANSWERS
