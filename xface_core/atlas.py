@@ -255,8 +255,9 @@ def build_atlas(
     max_nodes : int
         Size guard: a grid with more nodes raises :class:`XfaceValueError` with the estimate.
     cache_dir : path, optional
-        Directory of ``atlas-<key>.npz`` files: an atlas with the same key is loaded
-        instead of built, and a built one is saved there.
+        Directory of ``atlas-<key>.npz`` files (``~`` expanded): an atlas with the same key
+        is loaded instead of built, and a built one is saved there. Nothing is cached unless
+        a directory is given.
     threads : int, optional
         Threads of the batch simulations (default: one per core).
 
@@ -308,7 +309,7 @@ def build_atlas(
         angle_range=t_range,
         coarse_stride=coarse_stride,
     )
-    path = None if cache_dir is None else Path(cache_dir) / f"atlas-{key}.npz"
+    path = None if cache_dir is None else Path(cache_dir).expanduser() / f"atlas-{key}.npz"
     if path is not None and path.exists():
         return _load(path, design, phys, key)
     # Integer multiples: mirrored nodes are exact negatives (the mirror fill relies on it).

@@ -8,9 +8,10 @@ rows or columns); the first crossing whose outcome differs from the query's (or 
 the two nodes disagree) is confirmed by simulating it and the crossing before it, and the
 bracket is then bisected exactly to the same resolution as the exact search, the four
 half-axes in one batch per bisection step. Where the line leaves the atlas before a flip,
-the exact scan takes over from the atlas's edge, so the answer never depends on the atlas's
-extent, only on its spacing (a flip and flip back between two grid lines is missed, as
-the exact scan misses one between two of its nodes).
+the exact scan takes over from the atlas's edge (or from its last grid line before the end
+of the search range), so the answer never depends on the atlas's extent, only on its
+spacing (a flip and flip back between two grid lines is missed, as the exact scan misses
+one between two of its nodes).
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ import numpy as np
 import numpy.typing as npt
 
 from .atlas import AcceptanceAtlas
+from .errors import XfaceValueError
 from .margins import (
     ANGLE_RESOLUTION,
     ANGLE_STEP,
@@ -125,11 +127,15 @@ def _confirm(atlas: AcceptanceAtlas, x_d: float, theta0: float, q: int, h: _Half
 
 
 def _bisect_all(
-    atlas: AcceptanceAtlas, x_d: float, theta0: float, q: int, axes: list[_HalfAxis]
+    atlas: AcceptanceAtlas,
+    x_d: float,
+    theta0: float,
+    q: int,
+    axes: list[_HalfAxis],
+    resolution: tuple[float, float],
 ) -> None:
     """Bisect every bracket to its axis's resolution, all half-axes in one batch per step."""
     design, physics = atlas.design, atlas.physics
-    resolution = (LATERAL_RESOLUTION, ANGLE_RESOLUTION)
     while True:
         active = [h for h in axes if math.isfinite(h.hi) and h.hi - h.lo > resolution[h.axis]]
         if not active:
@@ -148,6 +154,37 @@ def _bisect_all(
                 h.hi = mid
 
 
+def _beyond_atlas(
+    atlas: AcceptanceAtlas,
+    x0: float,
+    theta0: float,
+    outcome: Outcome,
+    h: _HalfAxis,
+    resolution: float,
+) -> float:
+    """The exact scan from the last atlas crossing (``h.lo``) to the end of the exact
+    search's range: its last node is ``ceil(limit / step) * step``, so the stretch between
+    the atlas's last crossing and that node is checked too (a flip there was missed once)."""
+    step = LATERAL_STEP if h.axis == 0 else ANGLE_STEP
+    last = math.ceil(h.limit / step - 1e-12) * step
+    remaining = last - h.lo
+    if remaining <= 0.0:
+        return math.inf
+    return flip_distance(
+        atlas.design,
+        x0,
+        theta0,
+        outcome,
+        axis=h.axis,
+        direction=h.direction,
+        limit=last,
+        step=min(step, remaining),
+        resolution=resolution,
+        physics=atlas.physics,
+        first=h.lo,
+    )
+
+
 def margins_from_atlas(
     atlas: AcceptanceAtlas,
     x0: float,
@@ -155,6 +192,7 @@ def margins_from_atlas(
     outcome: Outcome,
     *,
     y_start: float | None = None,
+    resolution: tuple[float, float] = (LATERAL_RESOLUTION, ANGLE_RESOLUTION),
 ) -> Margins:
     """Distances from (x0, theta0) to the nearest outcome flip along x0 and theta0: the same
     result and meaning as :func:`~xface_core.margins.outcome_margins` (each bisected to
@@ -174,6 +212,10 @@ def margins_from_atlas(
     y_start : float, optional
         The query's start height (length). The atlas was built at the default start, so an
         explicit start is searched exactly (:func:`outcome_margins` at that start).
+    resolution : (float, float)
+        Bisection resolution, lateral (D) and angular (rad); default the exact search's
+        (1e-4 D, 1e-5 rad). Each factor 2 coarser saves one sequential simulation per
+        half-axis: a caller that needs an answer sooner than exact can trade it here.
 
     Examples
     --------
@@ -188,6 +230,9 @@ def margins_from_atlas(
     """
     design, physics = atlas.design, atlas.physics
     check_pose(design, x0, theta0, y_start)
+    lateral_res, angle_res = (float(r) for r in resolution)
+    if not (0.0 < lateral_res < math.inf and 0.0 < angle_res < math.inf):
+        raise XfaceValueError(f"resolution must be two finite values > 0, got {resolution!r}")
     x_d = x0 / design.width
     if y_start is not None or not bool(atlas.covers(x_d, theta0)):
         return outcome_margins(design, x0, theta0, outcome, physics=physics, y_start=y_start)
@@ -196,29 +241,13 @@ def margins_from_atlas(
     axes = _half_axes(atlas, x_d, theta0, limit_x)
     for h in axes:
         _confirm(atlas, x_d, theta0, q, h)
-    _bisect_all(atlas, x_d, theta0, q, axes)
+    _bisect_all(atlas, x_d, theta0, q, axes, (lateral_res, angle_res))
     found = []
     for h in axes:
         if math.isinf(h.hi):
-            # No flip on the atlas: the exact scan continues from its edge to the limit.
-            step = LATERAL_STEP if h.axis == 0 else ANGLE_STEP
-            if h.lo + step > h.limit:
-                found.append(math.inf)
-                continue
-            resolution = LATERAL_RESOLUTION if h.axis == 0 else ANGLE_RESOLUTION
             found.append(
-                flip_distance(
-                    design,
-                    x0,
-                    theta0,
-                    outcome,
-                    axis=h.axis,
-                    direction=h.direction,
-                    limit=h.limit,
-                    step=step,
-                    resolution=resolution,
-                    physics=physics,
-                    first=h.lo,
+                _beyond_atlas(
+                    atlas, x0, theta0, outcome, h, lateral_res if h.axis == 0 else angle_res
                 )
             )
         else:

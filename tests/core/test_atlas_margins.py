@@ -80,3 +80,30 @@ def test_query_off_the_atlas_falls_back_to_exact_search(v_atlas: xf.AcceptanceAt
 def test_non_finite_query_is_refused(v_atlas: xf.AcceptanceAtlas) -> None:
     with pytest.raises(xf.InputError):
         xf.margins_from_atlas(v_atlas, math.nan, 0.0, xf.Outcome.SEATED)
+
+
+def test_coarser_resolution_brackets_the_exact_flip(v_atlas: xf.AcceptanceAtlas) -> None:
+    design = v_atlas.design
+    outcome = xf.predict(design, 0.2, -0.3, path=False).outcome
+    exact = _as_array(xf.outcome_margins(design, 0.2, -0.3, outcome))
+    coarse = _as_array(xf.margins_from_atlas(v_atlas, 0.2, -0.3, outcome, resolution=(1e-2, 1e-3)))
+    finite = np.isfinite(exact)
+    tol = np.array([1e-2, 1e-2, 1e-3, 1e-3])[finite] + 1e-4
+    assert np.all(np.abs(coarse[finite] - exact[finite]) <= tol)
+    assert np.array_equal(np.isfinite(coarse), finite)
+
+
+def test_bad_resolution_is_refused(v_atlas: xf.AcceptanceAtlas) -> None:
+    with pytest.raises(xf.XfaceValueError, match="resolution"):
+        xf.margins_from_atlas(v_atlas, 0.0, 0.0, xf.Outcome.SEATED, resolution=(0.0, 1e-5))
+
+
+def test_flip_between_last_grid_line_and_search_end_is_found() -> None:
+    # Found by scripts/check_atlas.py: this flip lies 3.1343 rad up, past the last atlas
+    # grid line within the pi searched and before the exact scan's last node at pi.
+    design = xf.s_face(0.25, 3.0)
+    atlas = build_atlas(design)
+    x0, theta0 = 1.6861043121347752, 0.23280522327235342
+    outcome = xf.predict(design, x0, theta0, path=False).outcome
+    got = xf.margins_from_atlas(atlas, x0, theta0, outcome)
+    assert got.angle_plus == pytest.approx(3.1343, abs=1e-4)
