@@ -202,7 +202,7 @@ def suggest_approach(
     phys = Physics() if physics is None else physics
     check_pose(design, x0, theta0, None)
     at = build_atlas(design, physics=phys) if atlas is None else atlas
-    at.check_matches(design, phys)
+    at = at.bound_to(design, phys)
     w = design.width
     start = np.array([x0 / w, theta0])
     nodes = np.stack(np.meshgrid(at.x0, at.theta0, indexing="ij"), axis=-1)

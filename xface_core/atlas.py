@@ -27,7 +27,7 @@ from __future__ import annotations
 import hashlib
 import math
 import time
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 from pathlib import Path
 
 import numpy as np
@@ -149,13 +149,18 @@ class AcceptanceAtlas:
         out[~self.covers(x0_d, theta0)] = -1
         return out
 
-    def check_matches(self, design: FaceDesign, physics: Physics) -> None:
-        """Raise :class:`XfaceValueError` unless this atlas was built for this design's
-        geometry and this physics (so it cannot silently answer for another connector)."""
+    def bound_to(self, design: FaceDesign, physics: Physics) -> AcceptanceAtlas:
+        """This atlas for ``design`` (same geometry, any width: the atlas is in units of D, and
+        the returned one reads queries in ``design``'s length unit) and ``physics``.
+
+        Raises :class:`XfaceValueError` unless it was built for this geometry and physics,
+        so it cannot silently answer for another connector.
+        """
         if design.cache_key != self.design.cache_key:
             raise XfaceValueError("the atlas was built for another design geometry")
         if physics != self.physics:
             raise XfaceValueError(f"the atlas was built for {self.physics!r}, not for {physics!r}")
+        return self if design is self.design else replace(self, design=design)
 
     def save(self, path: str | Path) -> Path:
         """Write the atlas to an ``.npz`` file (``build_atlas(..., cache_dir=...)`` reads it

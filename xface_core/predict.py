@@ -110,8 +110,9 @@ def predict(
     )
     prediction = simulate_pose(design, x0, theta0, phys, y_start=y_start, path=path)
     if margins and atlas is not None:
-        atlas.check_matches(design, phys)
-        found = margins_from_atlas(atlas, x0, theta0, prediction.outcome, y_start=y_start)
+        found = margins_from_atlas(
+            atlas.bound_to(design, phys), x0, theta0, prediction.outcome, y_start=y_start
+        )
         prediction = replace(prediction, margins=found)
     elif margins:
         found = outcome_margins(

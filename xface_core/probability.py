@@ -167,7 +167,8 @@ def seat_probability(
     x0, theta0 : float or array
         Estimated lateral offset (the design's length unit) and angle (rad); broadcast.
     cov : (2, 2) or (n, 2, 2) array
-        Covariance of (x0, theta0): units length^2, length rad, rad^2. Zero gives the exact
+        Covariance of (x0, theta0): units length^2, length rad, rad^2; n of them for n poses
+        (or for one pose: then one probability per covariance). Zero gives the exact
         prediction's outcome (1.0 or 0.0); a singular covariance (one direction certain) is
         accepted.
     physics : Physics, optional
@@ -209,13 +210,18 @@ def seat_probability(
     xb, tb = np.broadcast_arrays(
         np.asarray(x0, dtype=np.float64), np.asarray(theta0, dtype=np.float64)
     )
-    scalar = xb.ndim == 0
-    xs, ts = xb.ravel(), tb.ravel()
+    scalar = xb.ndim == 0 and np.ndim(cov) == 2
+    if scalar or np.ndim(cov) != 3:
+        xs, ts = xb.ravel(), tb.ravel()
+    else:  # one pose, many covariances: the pose repeats
+        n = np.shape(cov)[0]
+        xs, ts = np.broadcast_to(xb.ravel(), (n,)), np.broadcast_to(tb.ravel(), (n,))
+        xb = xs
     if not (np.isfinite(xs).all() and np.isfinite(ts).all()):
         raise InputError("x0 and theta0 must be finite")
     cov_c = checked_covariances(cov, xs.size)
     at = build_atlas(design, physics=phys) if atlas is None else atlas
-    at.check_matches(design, phys)
+    at = at.bound_to(design, phys)
     w = design.width
     # Covariance in (D, rad): x scales by 1/w.
     scale = np.array([1.0 / w, 1.0])

@@ -86,11 +86,20 @@ def test_bad_grid_is_refused(kwargs: dict[str, float]) -> None:
 
 def test_atlas_for_other_physics_is_refused(coarse_v_atlas: xf.AcceptanceAtlas) -> None:
     with pytest.raises(xf.XfaceValueError, match="built for"):
-        coarse_v_atlas.check_matches(coarse_v_atlas.design, xf.Physics(friction=0.2))
+        coarse_v_atlas.bound_to(coarse_v_atlas.design, xf.Physics(friction=0.2))
     with pytest.raises(xf.XfaceValueError, match="another design"):
-        coarse_v_atlas.check_matches(xf.x_face(0.5, 1.0), coarse_v_atlas.physics)
+        coarse_v_atlas.bound_to(xf.x_face(0.5, 1.0), coarse_v_atlas.physics)
 
 
 def test_cell_classification_marks_outside_as_unknown(coarse_v_atlas: xf.AcceptanceAtlas) -> None:
     out = coarse_v_atlas.seated_in_cell([0.0, 0.0, 50.0], [0.0, 1.5, 0.0])
     assert out.tolist() == [1, 0, -1]
+
+
+def test_atlas_binds_to_the_same_geometry_at_another_width(
+    coarse_v_atlas: xf.AcceptanceAtlas,
+) -> None:
+    metric = xf.v_face(0.5, 1.0, width=0.03)
+    bound = coarse_v_atlas.bound_to(metric, coarse_v_atlas.physics)
+    assert bound.design is metric
+    assert bound.outcomes is coarse_v_atlas.outcomes

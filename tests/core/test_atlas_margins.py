@@ -55,9 +55,10 @@ def test_width_scales_margins() -> None:
 
 
 def test_predict_with_atlas_gives_the_exact_margins(v_atlas: xf.AcceptanceAtlas) -> None:
-    design = v_atlas.design
-    fast = xf.predict(design, 0.2, -0.3, path=False, margins=True, atlas=v_atlas).margins
-    exact = xf.predict(design, 0.2, -0.3, path=False, margins=True).margins
+    # The atlas was built in widths; the query comes in metres (D = 3 cm).
+    design = xf.v_face(0.5, 1.0, width=0.03)
+    fast = xf.predict(design, 0.006, -0.3, path=False, margins=True, atlas=v_atlas).margins
+    exact = xf.predict(design, 0.006, -0.3, path=False, margins=True).margins
     assert fast is not None
     assert exact is not None
     assert _agree(fast, exact, design.width)

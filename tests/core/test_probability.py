@@ -95,3 +95,24 @@ def test_non_finite_mean_is_refused(coarse_v_atlas: xf.AcceptanceAtlas) -> None:
         xf.seat_probability(
             coarse_v_atlas.design, math.inf, 0.0, np.eye(2) * 1e-4, atlas=coarse_v_atlas
         )
+
+
+def test_probability_does_not_depend_on_the_length_unit(
+    coarse_v_atlas: xf.AcceptanceAtlas,
+) -> None:
+    # Same connector in metres (D = 3 cm), atlas built in widths: poses and covariance scale.
+    w = 0.03
+    metric = xf.v_face(0.5, 1.0, width=w)
+    cov = _cov(0.1, 0.05, 0.5)
+    in_d = xf.seat_probability(coarse_v_atlas.design, 0.9, -0.3, cov, atlas=coarse_v_atlas)
+    scaled = cov * np.outer([w, 1.0], [w, 1.0])
+    in_m = xf.seat_probability(metric, 0.9 * w, -0.3, scaled, atlas=coarse_v_atlas)
+    assert in_m == pytest.approx(in_d, abs=1e-12)
+
+
+def test_one_pose_many_covariances(coarse_v_atlas: xf.AcceptanceAtlas) -> None:
+    design = coarse_v_atlas.design
+    covs = np.stack([_cov(0.05, 0.05, 0.0), _cov(0.1, 0.05, 0.5)])
+    many = xf.seat_probability(design, 0.9, -0.3, covs, atlas=coarse_v_atlas)
+    ones = [xf.seat_probability(design, 0.9, -0.3, c, atlas=coarse_v_atlas) for c in covs]
+    assert np.asarray(many).tolist() == ones
