@@ -27,6 +27,7 @@ from __future__ import annotations
 import hashlib
 import math
 import time
+import zipfile
 from dataclasses import dataclass, fields, replace
 from pathlib import Path
 
@@ -316,7 +317,11 @@ def build_atlas(
     )
     path = None if cache_dir is None else Path(cache_dir).expanduser() / f"atlas-{key}.npz"
     if path is not None and path.exists():
-        return _load(path, design, phys, key)
+        try:
+            return _load(path, design, phys, key)
+        except (OSError, ValueError, KeyError, zipfile.BadZipFile):
+            pass  # unreadable (truncated by a crash, or foreign): rebuilt and overwritten
+
     # Integer multiples: mirrored nodes are exact negatives (the mirror fill relies on it).
     x_d = np.arange(-nx, nx + 1).astype(np.float64) * dx
     th = np.arange(-nt, nt + 1).astype(np.float64) * dt

@@ -56,6 +56,16 @@ def test_cache_round_trip_skips_the_build(tmp_path: Path) -> None:
     assert np.array_equal(loaded.outcomes, built.outcomes)
 
 
+def test_unreadable_cache_file_is_rebuilt(tmp_path: Path) -> None:
+    design = xf.v_face(0.5, 1.0)
+    built = build_atlas(design, cache_dir=tmp_path, **SMALL)
+    (tmp_path / f"atlas-{built.key}.npz").write_bytes(b"truncated")
+    again = build_atlas(design, cache_dir=tmp_path, **SMALL)
+    assert again.build_seconds > 0.0
+    assert np.array_equal(again.outcomes, built.outcomes)
+    assert build_atlas(design, cache_dir=tmp_path, **SMALL).build_seconds == 0.0
+
+
 def test_cache_key_depends_on_physics_and_grid(tmp_path: Path) -> None:
     design = xf.v_face(0.5, 1.0)
     a = build_atlas(design, cache_dir=tmp_path, **SMALL)
