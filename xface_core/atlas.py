@@ -34,6 +34,7 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 
+from .codes import Outcome
 from .errors import XfaceValueError
 from .geometry import FaceDesign
 from .physics import Physics, SolverSettings
@@ -107,6 +108,11 @@ class AcceptanceAtlas:
     start_clearance: float = START_CLEARANCE
     build_seconds: float = 0.0
 
+    def __post_init__(self) -> None:
+        # Read-only arrays: one atlas is shared by every query (and thread) that uses it.
+        for array in (self.x0, self.theta0, self.outcomes, self.simulated):
+            array.flags.writeable = False
+
     @property
     def lateral_step(self) -> float:
         """Node spacing along x0 (D)."""
@@ -141,8 +147,6 @@ class AcceptanceAtlas:
     def seated_in_cell(self, x0_d: npt.ArrayLike, theta0: npt.ArrayLike) -> npt.NDArray[np.int8]:
         """Per pose: 1 when its cell's four corners all seat, 0 when none does, -1 when they
         disagree or the pose lies outside the grid (an exact simulation must decide)."""
-        from .codes import Outcome  # local: codes is tiny, keeps the import list short
-
         i, k = self.cell_index(x0_d, theta0)
         s = self.outcomes == Outcome.SEATED
         corners = s[i, k].astype(np.int8) + s[i + 1, k] + s[i, k + 1] + s[i + 1, k + 1]

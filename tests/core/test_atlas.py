@@ -113,3 +113,8 @@ def test_atlas_binds_to_the_same_geometry_at_another_width(
     bound = coarse_v_atlas.bound_to(metric, coarse_v_atlas.physics)
     assert bound.design is metric
     assert bound.outcomes is coarse_v_atlas.outcomes
+
+
+def test_atlas_arrays_are_read_only(coarse_v_atlas: xf.AcceptanceAtlas) -> None:
+    with pytest.raises(ValueError, match="read-only"):
+        coarse_v_atlas.outcomes[0, 0] = 0
