@@ -18,6 +18,9 @@ Examples
 
 from __future__ import annotations
 
+from .approach import ApproachSuggestion, suggest_approach
+from .atlas import AcceptanceAtlas, build_atlas
+from .atlas_margins import margins_from_atlas
 from .codes import Outcome, Reason
 from .errors import FaceFileError, GeometryError, InputError, XfaceError, XfaceValueError
 from .facefile import load_face, save_face
@@ -26,6 +29,7 @@ from .grids import PAPER_H_OVER_D, PAPER_R_P, theta_grid, x0_grid
 from .margins import outcome_margins
 from .physics import DEFAULT_SETTINGS, Physics, SolverSettings
 from .predict import predict
+from .probability import seat_probability
 from .regions import largest_centred_rectangle, largest_rectangle
 from .result import AlignmentPath, Counters, Margins, Phase, Prediction
 from .runner import BatchResult, predict_batch
@@ -35,8 +39,10 @@ __all__ = [
     "DEFAULT_SETTINGS",
     "PAPER_H_OVER_D",
     "PAPER_R_P",
+    "AcceptanceAtlas",
     "AcceptanceMap",
     "AlignmentPath",
+    "ApproachSuggestion",
     "BatchResult",
     "Counters",
     "FaceDesign",
@@ -54,17 +60,21 @@ __all__ = [
     "XfaceError",
     "XfaceValueError",
     "acceptance_map",
+    "build_atlas",
     "custom_face",
     "largest_centred_rectangle",
     "largest_rectangle",
     "load_face",
     "m_table",
     "make_face",
+    "margins_from_atlas",
     "outcome_margins",
     "predict",
     "predict_batch",
     "s_face",
     "save_face",
+    "seat_probability",
+    "suggest_approach",
     "theta_grid",
     "v_face",
     "x0_grid",

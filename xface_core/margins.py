@@ -12,7 +12,7 @@ from .physics import Physics, SolverSettings
 from .result import Margins
 from .runner import predict_batch
 
-__all__ = ["outcome_margins"]
+__all__ = ["flip_distance", "outcome_margins"]
 
 #: Coarse scan steps before bisection: D/40 laterally, pi/160 in angle.
 LATERAL_STEP = 1.0 / 40.0
@@ -24,7 +24,7 @@ LATERAL_RESOLUTION = 1e-4
 ANGLE_RESOLUTION = 1e-5
 
 
-def _flip_distance(
+def flip_distance(
     design: FaceDesign,
     x0: float,
     theta0: float,
@@ -36,11 +36,19 @@ def _flip_distance(
     step: float,
     resolution: float,
     physics: Physics,
+    y_start: float | None = None,
+    first: float = 0.0,
 ) -> float:
     """Distance along one axis (0: x0 in D, 1: theta0) to the first node whose outcome
     differs from ``outcome``, scanned coarsely (in batches, nearest first, stopping at the
-    first batch with a flip) then bisected; inf if none."""
-    offsets = np.arange(1, math.ceil(limit / step) + 1) * step
+    first batch with a flip) then bisected; inf if none.
+
+    The scan nodes are ``first + k step`` (k >= 1, offsets in D or rad) up to ``limit``:
+    ``first`` > 0 continues a search known to be flip-free up to ``first`` (the atlas hands
+    over at its edge). Every pose starts at ``y_start`` (length) when given, else at the
+    default height for its angle, as the query itself was simulated.
+    """
+    offsets = first + np.arange(1, max(1, math.ceil((limit - first) / step)) + 1) * step
     scale = design.width if axis == 0 else 1.0
     flip = -1
     for start in range(0, offsets.size, SCAN_BATCH):
@@ -48,32 +56,26 @@ def _flip_distance(
         xs = np.full(chunk.shape, x0)
         ts = np.full(chunk.shape, theta0)
         (xs if axis == 0 else ts)[:] += direction * chunk * scale
-        codes = predict_batch(design, xs, ts, physics=physics).outcome
+        codes = predict_batch(design, xs, ts, physics=physics, y_start=y_start).outcome
         found = np.flatnonzero(codes != outcome)
         if found.size:
             flip = start + int(found[0])
             break
     if flip < 0:
         return math.inf
-    flips = [flip]
-    hi = float(offsets[flips[0]])
+    hi = float(offsets[flip])
     lo = hi - step
     while hi - lo > resolution:
         mid = 0.5 * (lo + hi)
         x, t = (
-            (x0 + direction * mid * design.width, theta0)
-            if axis == 0
-            else (
-                x0,
-                theta0 + direction * mid,
-            )
+            (x0 + direction * mid * scale, theta0) if axis == 0 else (x0, theta0 + direction * mid)
         )
-        code = predict_batch(design, [x], [t], physics=physics).outcome[0]
+        code = predict_batch(design, [x], [t], physics=physics, y_start=y_start).outcome[0]
         if code == outcome:
             lo = mid
         else:
             hi = mid
-    return hi * (design.width if axis == 0 else 1.0)
+    return hi * scale
 
 
 def outcome_margins(
@@ -86,6 +88,7 @@ def outcome_margins(
     damping_ratio: float | None = None,
     friction: float | None = None,
     settings: SolverSettings | None = None,
+    y_start: float | None = None,
 ) -> Margins:
     """Distances from (x0, theta0) to the nearest outcome flip, along x0 and along theta0.
 
@@ -93,6 +96,12 @@ def outcome_margins(
     flips) and |theta0 - theta0'| up to pi, then bisects to 1e-4 D and 1e-5 rad. A flip
     between two scan nodes that flips back before the next one is not seen; the scan steps
     (D/40, pi/160) bound the width of such islands.
+
+    Every neighbour is simulated from the query's own start: ``y_start`` (length) when
+    given, as :func:`~xface_core.predict` took it, else the default height for its angle.
+    (Searching at the default start for a query started elsewhere compared two different
+    experiments: a start below the base, INVALID_INPUT, "flipped" at the first scan node and
+    gave margins of +-9.8e-5 D.)
 
     Examples
     --------
@@ -107,7 +116,7 @@ def outcome_margins(
     )
     lateral_limit = 2.0 * design.mated_distance
     lat = [
-        _flip_distance(
+        flip_distance(
             design,
             x0,
             theta0,
@@ -118,11 +127,12 @@ def outcome_margins(
             step=LATERAL_STEP,
             resolution=LATERAL_RESOLUTION,
             physics=phys,
+            y_start=y_start,
         )
         for s in (-1.0, 1.0)
     ]
     ang = [
-        _flip_distance(
+        flip_distance(
             design,
             x0,
             theta0,
@@ -133,6 +143,7 @@ def outcome_margins(
             step=ANGLE_STEP,
             resolution=ANGLE_RESOLUTION,
             physics=phys,
+            y_start=y_start,
         )
         for s in (-1.0, 1.0)
     ]

@@ -9,6 +9,8 @@ from __future__ import annotations
 
 from dataclasses import replace
 
+from .atlas import AcceptanceAtlas
+from .atlas_margins import margins_from_atlas
 from .codes import REASON_TEXT
 from .geometry import FaceDesign
 from .margins import outcome_margins
@@ -52,6 +54,7 @@ def predict(
     path: bool = True,
     margins: bool = False,
     settings: SolverSettings | None = None,
+    atlas: AcceptanceAtlas | None = None,
 ) -> Prediction:
     """Predict whether the faces seat from one initial relative pose.
 
@@ -83,6 +86,11 @@ def predict(
         Also search the distance to the nearest pose with a different outcome.
     settings : SolverSettings
         Numerical settings of the integrator.
+    atlas : AcceptanceAtlas, optional
+        With ``margins``: read the margins from this atlas (built for this design and
+        physics) and confirm them exactly (:func:`~xface_core.atlas_margins.margins_from_atlas`:
+        the same values as the exact search, with a fraction of its simulations). The pose
+        itself is always simulated.
 
     Returns
     -------
@@ -101,7 +109,14 @@ def predict(
         physics, damping_ratio=damping_ratio, friction=friction, settings=settings
     )
     prediction = simulate_pose(design, x0, theta0, phys, y_start=y_start, path=path)
-    if margins:
-        found = outcome_margins(design, x0, theta0, prediction.outcome, physics=phys)
+    if margins and atlas is not None:
+        found = margins_from_atlas(
+            atlas.bound_to(design, phys), x0, theta0, prediction.outcome, y_start=y_start
+        )
+        prediction = replace(prediction, margins=found)
+    elif margins:
+        found = outcome_margins(
+            design, x0, theta0, prediction.outcome, physics=phys, y_start=y_start
+        )
         prediction = replace(prediction, margins=found)
     return prediction

@@ -185,8 +185,13 @@ def predict_batch(
     friction: float | None = None,
     settings: SolverSettings | None = None,
     threads: int | None = None,
+    y_start: npt.ArrayLike | None = None,
 ) -> BatchResult:
     """Predict many poses of one design (broadcast like numpy; no paths).
+
+    ``y_start`` (length, broadcast with the poses) starts every pose at that height of the
+    moving pivot instead of the default one just clear of the base for its angle (as
+    :func:`xface_core.predict` does); a non-finite or absurd entry gives ``INVALID_INPUT``.
 
     ``physics`` (or, equivalently, the loose ``damping_ratio``, ``friction`` and
     ``settings``) as for :func:`xface_core.predict`. ``threads`` splits a large batch over
@@ -206,10 +211,19 @@ def predict_batch(
     phys = Physics.resolve(
         physics, damping_ratio=damping_ratio, friction=friction, settings=settings
     )
-    xb, tb = np.broadcast_arrays(
-        np.asarray(x0, dtype=np.float64), np.asarray(theta0, dtype=np.float64)
-    )
-    runs = run_flat(design, (xb / design.width).ravel(), tb.ravel(), phys, threads)
+    if y_start is None:
+        xb, tb = np.broadcast_arrays(
+            np.asarray(x0, dtype=np.float64), np.asarray(theta0, dtype=np.float64)
+        )
+        ys_d = None
+    else:
+        xb, tb, yb = np.broadcast_arrays(
+            np.asarray(x0, dtype=np.float64),
+            np.asarray(theta0, dtype=np.float64),
+            np.asarray(y_start, dtype=np.float64),
+        )
+        ys_d = (yb / design.width).ravel()
+    runs = run_flat(design, (xb / design.width).ravel(), tb.ravel(), phys, threads, ys_d)
     shape = xb.shape
     return BatchResult(
         outcome=runs["outcome"].astype(np.int8).reshape(shape),
@@ -226,12 +240,18 @@ def run_flat(
     ts: FloatArray,
     physics: Physics,
     threads: int | None = None,
+    ys: FloatArray | None = None,
 ) -> npt.NDArray[np.void]:
-    """The engine over flat arrays of x0 (units of D) and theta0: one ``RUN_DTYPE`` row each."""
-    ys = np.nan_to_num(start_heights(design, ts))
+    """The engine over flat arrays of x0 (units of D) and theta0: one ``RUN_DTYPE`` row each,
+    started at the heights ``ys`` (units of D; default: just clear of the base per angle)."""
     valid = (
         np.isfinite(xs) & np.isfinite(ts) & (np.abs(xs) <= MAX_OFFSET) & (np.abs(ts) <= 2 * np.pi)
     )
+    if ys is None:
+        ys = np.nan_to_num(start_heights(design, ts))
+    else:
+        valid &= np.isfinite(ys) & (np.abs(ys) <= MAX_OFFSET)
+        ys = np.where(valid, ys, 0.0)
     model = engine_model(design)
     opts = _engine.make_options(physics)
     n_threads = DEFAULT_THREADS if threads is None else max(1, threads)

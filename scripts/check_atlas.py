@@ -1,0 +1,156 @@
+"""Check the atlas against the exact computations it replaces (issue 11's "must show").
+
+1. Margins: ``margins_from_atlas`` against the exact search ``outcome_margins`` on random
+   poses over several designs; a pose agrees when all four distances are equal within the
+   search's resolution (1e-4 D, 1e-5 rad) or both infinite. Every disagreement is printed
+   with the atlas's outcomes around it so it can be explained.
+2. Probability: ``seat_probability`` against plain Monte Carlo (``predict_batch`` on samples
+   of the Gaussian) on random poses and covariances over X, V and S designs.
+
+Usage::
+
+    python scripts/check_atlas.py [--poses 1000] [--queries 30] [--samples 20000] [--seed 0]
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import time
+
+import numpy as np
+import numpy.typing as npt
+
+import xface_core as xf
+from xface_core.margins import ANGLE_RESOLUTION, LATERAL_RESOLUTION
+
+#: The designs of the margins check: X, V and S, several H/D and r_p.
+MARGIN_DESIGNS = (
+    ("X", 0.25, 2.0),
+    ("X", 1.0, 0.5),
+    ("V", 0.5, 1.0),
+    ("V", 2.0, 0.0),
+    ("S", 1.0, 1.0),
+    ("S", 0.25, 3.0),
+)
+PROBABILITY_DESIGNS = (("X", 0.25, 2.0), ("V", 0.5, 1.0), ("S", 1.0, 1.0))
+
+
+def random_poses(
+    atlas: xf.AcceptanceAtlas, n: int, rng: np.random.Generator
+) -> npt.NDArray[np.float64]:
+    """(n, 2) poses (x0 in D, theta0): half uniform over |x0| <= L + 0.1 D, |theta0| <= pi/2,
+    half near SEATED nodes (within 3 grid steps), where the boundaries are."""
+    half = n // 2
+    reach = atlas.design.mated_distance + 0.1
+    uniform = np.column_stack(
+        (rng.uniform(-reach, reach, half), rng.uniform(-math.pi / 2, math.pi / 2, half))
+    )
+    inside = np.abs(atlas.theta0) <= math.pi / 2
+    i, k = np.nonzero(atlas.outcomes[:, inside] == xf.Outcome.SEATED)
+    pick = rng.integers(0, i.size, n - half)
+    near = np.column_stack(
+        (
+            atlas.x0[i[pick]] + rng.uniform(-3, 3, n - half) * atlas.lateral_step,
+            atlas.theta0[inside][k[pick]] + rng.uniform(-3, 3, n - half) * atlas.angle_step,
+        )
+    )
+    return np.vstack((uniform, near))
+
+
+def _values(m: xf.Margins) -> npt.NDArray[np.float64]:
+    return np.array([m.lateral_minus, m.lateral_plus, m.angle_minus, m.angle_plus])
+
+
+def check_margins(n_poses: int, rng: np.random.Generator) -> None:
+    per = math.ceil(n_poses / len(MARGIN_DESIGNS))
+    total = agree = 0
+    tol = np.array([LATERAL_RESOLUTION] * 2 + [ANGLE_RESOLUTION] * 2) * (1 + 1e-9)
+    for kind, h, rp in MARGIN_DESIGNS:
+        design = xf.make_face(kind, h, rp)
+        atlas = xf.build_atlas(design)
+        poses = random_poses(atlas, per, rng)
+        t_atlas = t_exact = 0.0
+        bad = 0
+        for x0, theta0 in poses:
+            outcome = xf.predict(design, x0, theta0, path=False).outcome
+            t0 = time.perf_counter()
+            fast = _values(xf.margins_from_atlas(atlas, x0, theta0, outcome))
+            t1 = time.perf_counter()
+            exact = _values(xf.outcome_margins(design, x0, theta0, outcome))
+            t2 = time.perf_counter()
+            t_atlas += t1 - t0
+            t_exact += t2 - t1
+            same = fast == exact
+            diff = np.subtract(fast, exact, out=np.zeros(4), where=~same)
+            ok = bool(np.all(same | (np.abs(diff) <= tol)))
+            total += 1
+            agree += ok
+            if not ok:
+                bad += 1
+                print(
+                    f"  DIFF {kind} {h} {rp} x0={x0!r} theta0={theta0!r} {outcome.name}\n"
+                    f"       atlas {fast.tolist()}\n       exact {exact.tolist()}"
+                )
+        print(
+            f"margins {kind} H/D={h} r_p={rp}: atlas {atlas.outcomes.shape} "
+            f"built in {atlas.build_seconds:.2f} s ({atlas.simulations} simulations); "
+            f"{per - bad}/{per} poses agree; time atlas {t_atlas:.1f} s, exact {t_exact:.1f} s"
+        )
+    print(f"MARGINS: {agree}/{total} poses agree ({100.0 * agree / total:.2f} %)")
+
+
+def check_probability(n_queries: int, n_samples: int, rng: np.random.Generator) -> None:
+    per = math.ceil(n_queries / len(PROBABILITY_DESIGNS))
+    worst = 0.0
+    within = total = 0
+    for kind, h, rp in PROBABILITY_DESIGNS:
+        design = xf.make_face(kind, h, rp)
+        atlas = xf.build_atlas(design)
+        for x0, theta0 in random_poses(atlas, per, rng):
+            sx, st = 10 ** rng.uniform(-2.3, -0.5, 2)  # 0.005 .. 0.32 (D, rad)
+            rho = rng.uniform(-0.9, 0.9)
+            cov = np.array([[sx * sx, rho * sx * st], [rho * sx * st, st * st]])
+            t0 = time.perf_counter()
+            p = float(xf.seat_probability(design, x0, theta0, cov, atlas=atlas))
+            elapsed = time.perf_counter() - t0
+            samples = rng.multivariate_normal([x0, theta0], cov, size=n_samples)
+            mc = float(
+                np.mean(
+                    xf.predict_batch(design, samples[:, 0], samples[:, 1]).outcome
+                    == xf.Outcome.SEATED
+                )
+            )
+            se = math.sqrt(max(mc * (1 - mc), 1e-12) / n_samples)
+            diff = p - mc
+            worst = max(worst, abs(diff))
+            total += 1
+            within += abs(diff) <= 0.01
+            print(
+                f"  prob {kind} x0={x0:+.3f} th={theta0:+.3f} sx={sx:.4f} st={st:.4f} "
+                f"rho={rho:+.2f}: atlas {p:.4f} MC {mc:.4f} (se {se:.4f}) diff {diff:+.4f} "
+                f"[{elapsed * 1e3:.0f} ms]"
+            )
+    print(
+        f"PROBABILITY: {within}/{total} within 0.01 of Monte Carlo ({n_samples} samples); "
+        f"largest |difference| {worst:.4f}"
+    )
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--poses", type=int, default=1000)
+    parser.add_argument("--queries", type=int, default=30)
+    parser.add_argument("--samples", type=int, default=20000)
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--skip", choices=("margins", "probability"), default=None)
+    args = parser.parse_args()
+    rng = np.random.default_rng(args.seed)
+    if args.skip != "margins":
+        check_margins(args.poses, rng)
+    if args.skip != "probability":
+        check_probability(args.queries, args.samples, rng)
+
+
+if __name__ == "__main__":
+    main()

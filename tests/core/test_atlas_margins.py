@@ -1,0 +1,110 @@
+"""Margins from the atlas equal the exact margin search within its resolution."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import xface_core as xf
+from xface_core.atlas import build_atlas
+from xface_core.margins import ANGLE_RESOLUTION, LATERAL_RESOLUTION
+
+#: Coarser than the default atlas, over its full default range (the angle search from
+#: |theta0| <= pi/2 reaches 3 pi/2); the full-size check is scripts/check_atlas.py.
+COARSE = {"lateral_step": 1 / 32, "angle_step": math.pi / 128}
+
+
+@pytest.fixture(scope="module")
+def v_atlas() -> xf.AcceptanceAtlas:
+    return build_atlas(xf.v_face(0.5, 1.0), **COARSE)
+
+
+def _as_array(m: xf.Margins) -> np.ndarray:
+    return np.array([m.lateral_minus, m.lateral_plus, m.angle_minus, m.angle_plus])
+
+
+def _agree(a: xf.Margins, b: xf.Margins, width: float) -> bool:
+    tol = np.array([LATERAL_RESOLUTION * width] * 2 + [ANGLE_RESOLUTION] * 2) * (1 + 1e-9)
+    x, y = _as_array(a), _as_array(b)
+    same = x == y  # both inf (no flip found) compare equal; inf - inf would be nan
+    diff = np.subtract(x, y, out=np.zeros(4), where=~same)
+    return bool(np.all(same | (np.abs(diff) <= tol)))
+
+
+@settings(max_examples=6)
+@given(x0=st.floats(-0.9, 0.9), theta0=st.floats(-1.5, 1.5))
+def test_atlas_margins_equal_exact_search(
+    v_atlas: xf.AcceptanceAtlas, x0: float, theta0: float
+) -> None:
+    design = v_atlas.design
+    outcome = xf.predict(design, x0, theta0, path=False).outcome
+    exact = xf.outcome_margins(design, x0, theta0, outcome)
+    assert _agree(xf.margins_from_atlas(v_atlas, x0, theta0, outcome), exact, design.width)
+
+
+def test_width_scales_margins() -> None:
+    design = xf.v_face(0.5, 1.0, width=0.03)
+    atlas = build_atlas(design, **COARSE)
+    outcome = xf.predict(design, 0.003, 0.1, path=False).outcome
+    exact = xf.outcome_margins(design, 0.003, 0.1, outcome)
+    assert _agree(xf.margins_from_atlas(atlas, 0.003, 0.1, outcome), exact, design.width)
+
+
+def test_predict_with_atlas_gives_the_exact_margins(v_atlas: xf.AcceptanceAtlas) -> None:
+    # The atlas was built in widths; the query comes in metres (D = 3 cm).
+    design = xf.v_face(0.5, 1.0, width=0.03)
+    fast = xf.predict(design, 0.006, -0.3, path=False, margins=True, atlas=v_atlas).margins
+    exact = xf.predict(design, 0.006, -0.3, path=False, margins=True).margins
+    assert fast is not None
+    assert exact is not None
+    assert _agree(fast, exact, design.width)
+
+
+def test_explicit_start_height_is_searched_at_that_height(v_atlas: xf.AcceptanceAtlas) -> None:
+    design = v_atlas.design
+    outcome = xf.predict(design, 0.1, 0.1, y_start=-5.0, path=False).outcome
+    got = xf.margins_from_atlas(v_atlas, 0.1, 0.1, outcome, y_start=-5.0)
+    assert got == xf.outcome_margins(design, 0.1, 0.1, outcome, y_start=-5.0)
+
+
+def test_query_off_the_atlas_falls_back_to_exact_search(v_atlas: xf.AcceptanceAtlas) -> None:
+    design = v_atlas.design
+    outcome = xf.predict(design, 0.1, 1.8 * math.pi, path=False).outcome
+    got = xf.margins_from_atlas(v_atlas, 0.1, 1.8 * math.pi, outcome)
+    assert got == xf.outcome_margins(design, 0.1, 1.8 * math.pi, outcome)
+
+
+def test_non_finite_query_is_refused(v_atlas: xf.AcceptanceAtlas) -> None:
+    with pytest.raises(xf.InputError):
+        xf.margins_from_atlas(v_atlas, math.nan, 0.0, xf.Outcome.SEATED)
+
+
+def test_coarser_resolution_brackets_the_exact_flip(v_atlas: xf.AcceptanceAtlas) -> None:
+    design = v_atlas.design
+    outcome = xf.predict(design, 0.2, -0.3, path=False).outcome
+    exact = _as_array(xf.outcome_margins(design, 0.2, -0.3, outcome))
+    coarse = _as_array(xf.margins_from_atlas(v_atlas, 0.2, -0.3, outcome, resolution=(1e-2, 1e-3)))
+    finite = np.isfinite(exact)
+    tol = np.array([1e-2, 1e-2, 1e-3, 1e-3])[finite] + 1e-4
+    assert np.all(np.abs(coarse[finite] - exact[finite]) <= tol)
+    assert np.array_equal(np.isfinite(coarse), finite)
+
+
+def test_bad_resolution_is_refused(v_atlas: xf.AcceptanceAtlas) -> None:
+    with pytest.raises(xf.XfaceValueError, match="resolution"):
+        xf.margins_from_atlas(v_atlas, 0.0, 0.0, xf.Outcome.SEATED, resolution=(0.0, 1e-5))
+
+
+def test_flip_between_last_grid_line_and_search_end_is_found() -> None:
+    # Found by scripts/check_atlas.py: this flip lies 3.1343 rad up, past the last atlas
+    # grid line within the pi searched and before the exact scan's last node at pi.
+    design = xf.s_face(0.25, 3.0)
+    atlas = build_atlas(design)
+    x0, theta0 = 1.6861043121347752, 0.23280522327235342
+    outcome = xf.predict(design, x0, theta0, path=False).outcome
+    got = xf.margins_from_atlas(atlas, x0, theta0, outcome)
+    assert got.angle_plus == pytest.approx(3.1343, abs=1e-4)

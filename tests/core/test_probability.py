@@ -1,0 +1,118 @@
+"""Seat probability under a Gaussian pose uncertainty, against plain Monte Carlo."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import xface_core as xf
+
+
+def _cov(sx: float, st: float, rho: float) -> np.ndarray:
+    return np.array([[sx * sx, rho * sx * st], [rho * sx * st, st * st]])
+
+
+@pytest.mark.parametrize(
+    ("x0", "theta0", "cov"),
+    [
+        (-0.72, 0.14, _cov(0.13, 0.05, -0.56)),  # across the seated region's lateral edge
+        (0.9, -0.3, _cov(0.1, 0.05, 0.5)),
+        (-0.3, 0.5, _cov(0.03, 0.2, -0.6)),  # across the angular edge
+    ],
+)
+def test_probability_agrees_with_monte_carlo(
+    coarse_v_atlas: xf.AcceptanceAtlas, x0: float, theta0: float, cov: np.ndarray
+) -> None:
+    design = coarse_v_atlas.design
+    p = xf.seat_probability(design, x0, theta0, cov, atlas=coarse_v_atlas)
+    n = 2000
+    rng = np.random.default_rng(11)
+    samples = rng.multivariate_normal([x0, theta0], cov, size=n)
+    mc = float(np.mean(xf.predict_batch(design, samples[:, 0], samples[:, 1]).outcome == 3))
+    assert 0.05 < mc < 0.95  # the case is on a boundary, not a trivial 0 or 1
+    # 4 binomial standard errors of the Monte Carlo estimate (<= 0.045 at n = 2000), plus
+    # the 0.01 the quadrature is asked for.
+    assert abs(p - mc) <= 4 * math.sqrt(mc * (1 - mc) / n) + 0.01
+
+
+@pytest.mark.parametrize(("x0", "seated"), [(0.0, 1.0), (0.9, 0.0)])
+def test_zero_covariance_is_the_exact_outcome(
+    coarse_v_atlas: xf.AcceptanceAtlas, x0: float, seated: float
+) -> None:
+    design = coarse_v_atlas.design
+    assert xf.predict(design, x0, 0.0, path=False).seated == bool(seated)
+    assert xf.seat_probability(design, x0, 0.0, np.zeros((2, 2)), atlas=coarse_v_atlas) == seated
+
+
+def test_vectorised_equals_one_by_one(coarse_v_atlas: xf.AcceptanceAtlas) -> None:
+    design = coarse_v_atlas.design
+    xs, ts = np.array([0.4, -0.2]), np.array([0.1, -0.4])
+    cov = _cov(0.05, 0.05, 0.0)
+    many = xf.seat_probability(design, xs, ts, cov, atlas=coarse_v_atlas)
+    ones = [
+        xf.seat_probability(design, x, t, cov, atlas=coarse_v_atlas)
+        for x, t in zip(xs, ts, strict=True)
+    ]
+    assert isinstance(many, np.ndarray)
+    assert many.shape == (2,)
+    assert many.tolist() == ones
+
+
+def test_singular_covariance_is_a_line_integral(coarse_v_atlas: xf.AcceptanceAtlas) -> None:
+    # All uncertainty in x0: the probability is the 1-D Gaussian mass over the seated
+    # stretch of the row, whose ends the exact margins give.
+    design = coarse_v_atlas.design
+    sx = 0.3
+    p = xf.seat_probability(design, 0.0, 0.0, _cov(sx, 0.0, 0.0), atlas=coarse_v_atlas)
+    m = xf.predict(design, 0.0, 0.0, path=False, margins=True).margins
+    assert m is not None
+
+    def phi(z: float) -> float:
+        return 0.5 * (1.0 + math.erf(z / math.sqrt(2.0)))
+
+    expected = phi(m.lateral_plus / sx) - phi(-m.lateral_minus / sx)
+    assert p == pytest.approx(expected, abs=2e-3)
+
+
+@pytest.mark.parametrize(
+    "cov",
+    [
+        [[1.0, 0.5], [0.0, 1.0]],  # not symmetric
+        [[1.0, 2.0], [2.0, 1.0]],  # indefinite
+        [[math.nan, 0.0], [0.0, 1.0]],
+        [1.0, 2.0],  # wrong shape
+    ],
+)
+def test_bad_covariance_is_refused(coarse_v_atlas: xf.AcceptanceAtlas, cov: object) -> None:
+    with pytest.raises(xf.XfaceValueError, match="cov must"):
+        xf.seat_probability(coarse_v_atlas.design, 0.0, 0.0, cov, atlas=coarse_v_atlas)
+
+
+def test_non_finite_mean_is_refused(coarse_v_atlas: xf.AcceptanceAtlas) -> None:
+    with pytest.raises(xf.InputError):
+        xf.seat_probability(
+            coarse_v_atlas.design, math.inf, 0.0, np.eye(2) * 1e-4, atlas=coarse_v_atlas
+        )
+
+
+def test_probability_does_not_depend_on_the_length_unit(
+    coarse_v_atlas: xf.AcceptanceAtlas,
+) -> None:
+    # Same connector in metres (D = 3 cm), atlas built in widths: poses and covariance scale.
+    w = 0.03
+    metric = xf.v_face(0.5, 1.0, width=w)
+    cov = _cov(0.1, 0.05, 0.5)
+    in_d = xf.seat_probability(coarse_v_atlas.design, 0.9, -0.3, cov, atlas=coarse_v_atlas)
+    scaled = cov * np.outer([w, 1.0], [w, 1.0])
+    in_m = xf.seat_probability(metric, 0.9 * w, -0.3, scaled, atlas=coarse_v_atlas)
+    assert in_m == pytest.approx(in_d, abs=1e-12)
+
+
+def test_one_pose_many_covariances(coarse_v_atlas: xf.AcceptanceAtlas) -> None:
+    design = coarse_v_atlas.design
+    covs = np.stack([_cov(0.05, 0.05, 0.0), _cov(0.1, 0.05, 0.5)])
+    many = xf.seat_probability(design, 0.9, -0.3, covs, atlas=coarse_v_atlas)
+    ones = [xf.seat_probability(design, 0.9, -0.3, c, atlas=coarse_v_atlas) for c in covs]
+    assert np.asarray(many).tolist() == ones

@@ -1,0 +1,260 @@
+"""Margins from the atlas: the exact margin search's answer with a few simulations.
+
+:func:`~xface_core.margins.outcome_margins` scans each of the four half-axes from the query
+in steps of D/40 or pi/160 until an outcome differs, then bisects. Here the scan is read from
+the atlas instead: along the query's line, the outcome at each atlas grid line it crosses is
+the common outcome of the two atlas nodes either side of it (the line runs between two grid
+rows or columns); the first crossing whose outcome differs from the query's (or is unknown:
+the two nodes disagree) is confirmed by simulating it and the crossing before it, and the
+bracket is then bisected exactly to the same resolution as the exact search, the four
+half-axes in one batch per bisection step. Where the line leaves the atlas before a flip,
+the exact scan takes over from the atlas's edge (or from its last grid line before the end
+of the search range), so the answer never depends on the atlas's extent, only on its
+spacing (a flip and flip back between two grid lines is missed, as the exact scan misses
+one between two of its nodes).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from .atlas import AcceptanceAtlas
+from .errors import XfaceValueError
+from .margins import (
+    ANGLE_RESOLUTION,
+    ANGLE_STEP,
+    LATERAL_RESOLUTION,
+    LATERAL_STEP,
+    flip_distance,
+    outcome_margins,
+)
+from .outcome import Outcome
+from .result import Margins
+from .runner import check_pose, predict_batch
+
+__all__ = ["margins_from_atlas"]
+
+
+@dataclass
+class _HalfAxis:
+    """One half-axis search: offsets (D or rad) from the query, outcomes known so far."""
+
+    axis: int  # 0: x0, 1: theta0
+    direction: float
+    offsets: npt.NDArray[np.float64]  # the atlas grid lines crossed, nearest first
+    predicted: npt.NDArray[np.int8]  # atlas outcome there, -1 when its two nodes disagree
+    limit: float
+    lo: float = 0.0  # largest offset known to have the query's outcome
+    hi: float = math.inf  # smallest offset known to differ (inf: none yet)
+    cursor: int = 0  # next crossing to read from the atlas
+
+
+def _half_axes(
+    atlas: AcceptanceAtlas, x_d: float, theta0: float, limit_x: float
+) -> list[_HalfAxis]:
+    """The four half-axis searches with the atlas's outcomes along them."""
+    i, k = atlas.cell_index(x_d, theta0)
+    out = atlas.outcomes
+    row = np.where(out[:, k] == out[:, k + 1], out[:, k], -1).astype(np.int8)
+    col = np.where(out[i, :] == out[i + 1, :], out[i, :], -1).astype(np.int8)
+    axes = []
+    for axis, nodes, line, value, limit in (
+        (0, atlas.x0, row, x_d, limit_x),
+        (1, atlas.theta0, col, theta0, math.pi),
+    ):
+        for direction in (-1.0, 1.0):
+            ahead = (nodes - value) * direction > 0.0
+            off = (nodes[ahead] - value) * direction
+            pred = line[ahead]
+            order = np.argsort(off)
+            off, pred = off[order], pred[order]
+            keep = off <= limit
+            axes.append(_HalfAxis(axis, direction, off[keep], pred[keep], limit))
+    return axes
+
+
+def _poses(
+    x_d: float, theta0: float, axis: int, direction: float, offsets: npt.ArrayLike
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    off = np.asarray(offsets, dtype=np.float64)
+    if axis == 0:
+        return x_d + direction * off, np.full(off.shape, theta0)
+    return np.full(off.shape, x_d), theta0 + direction * off
+
+
+def _exact(
+    atlas: AcceptanceAtlas, x_d: float, theta0: float, h: _HalfAxis, offsets: npt.ArrayLike
+) -> npt.NDArray[np.int8]:
+    """Exact outcomes at offsets along one half-axis (one batch)."""
+    design = atlas.design
+    xs, ts = _poses(x_d, theta0, h.axis, h.direction, offsets)
+    return predict_batch(design, xs * design.width, ts, physics=atlas.physics).outcome
+
+
+def _confirm(atlas: AcceptanceAtlas, x_d: float, theta0: float, q: int, h: _HalfAxis) -> None:
+    """Walk one half-axis on the atlas to its first flip and confirm it exactly: sets
+    ``h.lo`` and ``h.hi`` to a simulated bracket (``hi`` stays inf: no flip on the atlas,
+    ``lo`` is then the last crossing inside it)."""
+    while True:
+        ahead = np.flatnonzero(h.predicted[h.cursor :] != q)
+        if ahead.size == 0:
+            if h.offsets.size:
+                h.lo = max(h.lo, float(h.offsets[-1]))
+            return
+        c = h.cursor + int(ahead[0])
+        # The suspected flip and the crossing before it, unless that one is confirmed.
+        window = h.offsets[max(h.cursor, c - 1) : c + 1]
+        codes = _exact(atlas, x_d, theta0, h, window)
+        if window.size == 2 and codes[0] != q:
+            # The atlas missed a flip before the suspected one: simulate the crossings
+            # between the last confirmed pose and it (the exact scan, over a short stretch).
+            back = h.offsets[h.cursor : c - 1]
+            early = _exact(atlas, x_d, theta0, h, back) if back.size else codes[:0]
+            window = np.concatenate((back, window[:1]))
+            codes = np.concatenate((early, codes[:1]))
+        differ = np.flatnonzero(codes != q)
+        if differ.size:
+            j = int(differ[0])
+            h.lo = float(window[j - 1]) if j else h.lo
+            h.hi = float(window[j])
+            return
+        h.lo = float(window[-1])
+        h.cursor = c + 1
+
+
+def _bisect_all(
+    atlas: AcceptanceAtlas,
+    x_d: float,
+    theta0: float,
+    q: int,
+    axes: list[_HalfAxis],
+    resolution: tuple[float, float],
+) -> None:
+    """Bisect every bracket to its axis's resolution, all half-axes in one batch per step."""
+    design, physics = atlas.design, atlas.physics
+    while True:
+        active = [h for h in axes if math.isfinite(h.hi) and h.hi - h.lo > resolution[h.axis]]
+        if not active:
+            return
+        xs = np.empty(len(active))
+        ts = np.empty(len(active))
+        for n, h in enumerate(active):
+            x, t = _poses(x_d, theta0, h.axis, h.direction, [0.5 * (h.lo + h.hi)])
+            xs[n], ts[n] = x[0], t[0]
+        codes = predict_batch(design, xs * design.width, ts, physics=physics).outcome
+        for h, code in zip(active, codes, strict=True):
+            mid = 0.5 * (h.lo + h.hi)
+            if code == q:
+                h.lo = mid
+            else:
+                h.hi = mid
+
+
+def _beyond_atlas(
+    atlas: AcceptanceAtlas,
+    x0: float,
+    theta0: float,
+    outcome: Outcome,
+    h: _HalfAxis,
+    resolution: float,
+) -> float:
+    """The exact scan from the last atlas crossing (``h.lo``) to the end of the exact
+    search's range: its last node is ``ceil(limit / step) * step``, so the stretch between
+    the atlas's last crossing and that node is checked too (a flip there was missed once)."""
+    step = LATERAL_STEP if h.axis == 0 else ANGLE_STEP
+    last = math.ceil(h.limit / step - 1e-12) * step
+    remaining = last - h.lo
+    if remaining <= 0.0:
+        return math.inf
+    return flip_distance(
+        atlas.design,
+        x0,
+        theta0,
+        outcome,
+        axis=h.axis,
+        direction=h.direction,
+        limit=last,
+        step=min(step, remaining),
+        resolution=resolution,
+        physics=atlas.physics,
+        first=h.lo,
+    )
+
+
+def margins_from_atlas(
+    atlas: AcceptanceAtlas,
+    x0: float,
+    theta0: float,
+    outcome: Outcome,
+    *,
+    y_start: float | None = None,
+    resolution: tuple[float, float] = (LATERAL_RESOLUTION, ANGLE_RESOLUTION),
+) -> Margins:
+    """Distances from (x0, theta0) to the nearest outcome flip along x0 and theta0: the same
+    result and meaning as :func:`~xface_core.margins.outcome_margins` (each bisected to
+    1e-4 D and 1e-5 rad, searched over |dx0| <= 2 L and |dtheta0| <= pi), read from the
+    atlas and confirmed by exact simulations.
+
+    Parameters
+    ----------
+    atlas : AcceptanceAtlas
+        Built for the query's design and physics (``atlas.design``, ``atlas.physics``).
+    x0 : float
+        Lateral offset (the design's length unit).
+    theta0 : float
+        Angle (rad).
+    outcome : Outcome
+        The query's own exact outcome (from :func:`~xface_core.predict`).
+    y_start : float, optional
+        The query's start height (length). The atlas was built at the default start, so an
+        explicit start is searched exactly (:func:`outcome_margins` at that start).
+    resolution : (float, float)
+        Bisection resolution, lateral (D) and angular (rad); default the exact search's
+        (1e-4 D, 1e-5 rad). Each factor 2 coarser saves one sequential simulation per
+        half-axis: a caller that needs an answer sooner than exact can trade it here.
+
+    Examples
+    --------
+    >>> from xface_core import predict, v_face
+    >>> from xface_core.atlas import build_atlas
+    >>> d = v_face(0.5, 1.0)
+    >>> atlas = build_atlas(d, lateral_step=1 / 16, angle_step=0.05)
+    >>> m = margins_from_atlas(atlas, 0.1, 0.05, predict(d, 0.1, 0.05).outcome)
+    >>> exact = predict(d, 0.1, 0.05, margins=True).margins
+    >>> abs(m.angle_minus - exact.angle_minus) <= 1e-5
+    True
+    """
+    design, physics = atlas.design, atlas.physics
+    check_pose(design, x0, theta0, y_start)
+    lateral_res, angle_res = (float(r) for r in resolution)
+    if not (0.0 < lateral_res < math.inf and 0.0 < angle_res < math.inf):
+        raise XfaceValueError(f"resolution must be two finite values > 0, got {resolution!r}")
+    x_d = x0 / design.width
+    if y_start is not None or not bool(atlas.covers(x_d, theta0)):
+        return outcome_margins(design, x0, theta0, outcome, physics=physics, y_start=y_start)
+    q = int(outcome)
+    limit_x = 2.0 * design.mated_distance
+    axes = _half_axes(atlas, x_d, theta0, limit_x)
+    for h in axes:
+        _confirm(atlas, x_d, theta0, q, h)
+    _bisect_all(atlas, x_d, theta0, q, axes, (lateral_res, angle_res))
+    found = []
+    for h in axes:
+        if math.isinf(h.hi):
+            found.append(
+                _beyond_atlas(
+                    atlas, x0, theta0, outcome, h, lateral_res if h.axis == 0 else angle_res
+                )
+            )
+        else:
+            found.append(h.hi * (design.width if h.axis == 0 else 1.0))
+    return Margins(
+        lateral_minus=found[0],
+        lateral_plus=found[1],
+        angle_minus=found[2],
+        angle_plus=found[3],
+    )

@@ -1,0 +1,239 @@
+"""Seat probability under pose uncertainty, integrated over the acceptance atlas.
+
+The true pose (x0, theta0) is taken as Gaussian around the estimate with a 2 x 2 covariance.
+The probability of a seat is the Gaussian's mass over the SEATED region. It is integrated in
+the Gaussian's own polar coordinates: with ``pose = mean + A z``, ``A A^T = cov`` and ``z``
+standard normal, the direction of ``z`` is uniform and its length has the Rayleigh
+distribution, whose mass between radii a and b is ``exp(-a^2/2) - exp(-b^2/2)`` exactly. So
+
+    P = mean over rays of  sum over the SEATED stretches [a, b] of the ray
+        of ( exp(-a^2/2) - exp(-b^2/2) ).
+
+Each ray is sampled at least twice per atlas cell. A sample whose atlas cell has four SEATED
+corners counts as seated, four non-SEATED corners as not; any other sample (a boundary runs
+through its cell, or it lies outside the atlas) is simulated exactly. Where two neighbouring
+samples differ, the crossing is bisected by exact simulations, so the boundaries that carry
+the Gaussian's mass are exact to 1/64 of a sample spacing; the rays (128, evenly spaced in
+angle) integrate the rest.
+
+Mass outside the atlas is not guessed: those samples are simulated like any other (beyond
+|x0| = L they end OUT_OF_REACH, beyond |theta0| = 2 pi INVALID_INPUT: not seated). Mass beyond
+5 standard deviations (3.7e-6) takes the outcome of the ray's last sample.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import numpy.typing as npt
+
+from .atlas import AcceptanceAtlas, build_atlas
+from .errors import InputError, XfaceValueError
+from .geometry import FaceDesign
+from .outcome import Outcome
+from .physics import Physics
+from .runner import predict_batch
+
+__all__ = [
+    "DEFAULT_RAYS",
+    "RAY_RADIUS",
+    "checked_covariances",
+    "pose_factors",
+    "seat_probability",
+]
+
+FloatArray = npt.NDArray[np.float64]
+
+#: Rays per query (evenly spaced directions of the whitened Gaussian).
+DEFAULT_RAYS = 128
+#: Rays end at this many standard deviations (mass beyond: exp(-12.5) = 3.7e-6).
+RAY_RADIUS = 5.0
+#: Samples per ray at most (a Gaussian much wider than the atlas is sampled more coarsely
+#: than twice per cell; see docs/atlas.md).
+MAX_RAY_SAMPLES = 1024
+#: Bisection steps of each crossing (1/64 of a sample spacing).
+CROSSING_STEPS = 6
+
+
+def checked_covariances(cov: npt.ArrayLike, n: int) -> FloatArray:
+    """``cov`` as an (n, 2, 2) array, after checking it: finite, symmetric (to 1e-9 of its
+    largest entry) and positive semi-definite (to 1e-12 of its largest eigenvalue).
+
+    Raises :class:`XfaceValueError` naming what is wrong.
+    """
+    c = np.asarray(cov, dtype=np.float64)
+    if c.shape == (2, 2):
+        c = np.broadcast_to(c, (n, 2, 2))
+    if c.shape != (n, 2, 2):
+        raise XfaceValueError(f"cov must have shape (2, 2) or ({n}, 2, 2), got {c.shape}")
+    if not np.isfinite(c).all():
+        raise XfaceValueError("cov must be finite")
+    scale = np.abs(c).max(axis=(1, 2))
+    asym = np.abs(c[:, 0, 1] - c[:, 1, 0])
+    if (asym > 1e-9 * scale).any():
+        raise XfaceValueError(
+            f"cov must be symmetric, got off-diagonals differing by {asym.max():g}"
+        )
+    eig = np.linalg.eigvalsh(c)
+    if (eig[:, 0] < -1e-12 * np.maximum(eig[:, 1], 0.0) - 1e-300).any():
+        raise XfaceValueError(
+            f"cov must be positive semi-definite, got an eigenvalue {eig[:, 0].min():g}"
+        )
+    return np.array(c)
+
+
+def pose_factors(cov_d: FloatArray) -> FloatArray:
+    """Per query a 2 x 2 ``A`` with ``A A^T = cov`` (symmetric square root: also for a
+    singular covariance, where a Cholesky factor does not exist)."""
+    eig, vec = np.linalg.eigh(cov_d)
+    root = np.sqrt(np.clip(eig, 0.0, None))
+    return np.asarray(vec * root[:, None, :], dtype=np.float64)
+
+
+def _rayleigh_tail(r: FloatArray) -> FloatArray:
+    """Mass of the standard 2-D normal beyond radius r."""
+    return np.asarray(np.exp(-0.5 * r * r), dtype=np.float64)
+
+
+def _one_query(
+    atlas: AcceptanceAtlas,
+    mean: tuple[float, float],
+    factor: FloatArray,
+    seated_at_mean: bool,
+    rays: int,
+) -> float:
+    """Seat probability of one query (pose in D and rad, ``factor`` A in D and rad)."""
+    design, physics = atlas.design, atlas.physics
+    if not factor.any():
+        return 1.0 if seated_at_mean else 0.0
+    phi = 2.0 * math.pi * (np.arange(rays) + 0.5) / rays
+    u = np.column_stack((np.cos(phi), np.sin(phi)))
+    d = u @ factor.T  # pose change per unit radius, (rays, 2)
+    # Sample spacing: at most half a cell along the ray, in grid units.
+    stretch = float(np.hypot(d[:, 0] / atlas.lateral_step, d[:, 1] / atlas.angle_step).max())
+    n_r = int(min(MAX_RAY_SAMPLES, max(8, math.ceil(RAY_RADIUS * stretch / 0.5))))
+    r = np.linspace(0.0, RAY_RADIUS, n_r + 1)
+    xs = mean[0] + r[None, :] * d[:, 0, None]
+    ts = mean[1] + r[None, :] * d[:, 1, None]
+    seated = atlas.seated_in_cell(xs, ts)
+    seated[:, 0] = int(seated_at_mean)
+    unknown = seated < 0
+    if unknown.any():
+        exact = predict_batch(design, xs[unknown] * design.width, ts[unknown], physics=physics)
+        seated[unknown] = exact.outcome == Outcome.SEATED
+    # Crossings between neighbouring samples, bisected exactly (all of this query at once).
+    ray, k = np.nonzero(seated[:, :-1] != seated[:, 1:])
+    crossing = np.broadcast_to(r[1:], seated[:, 1:].shape).copy()
+    if ray.size:
+        lo, hi = r[k].copy(), r[k + 1].copy()
+        inner = seated[ray, k]
+        for _ in range(CROSSING_STEPS):
+            mid = 0.5 * (lo + hi)
+            codes = predict_batch(
+                design,
+                (mean[0] + mid * d[ray, 0]) * design.width,
+                mean[1] + mid * d[ray, 1],
+                physics=physics,
+            ).outcome
+            same = (codes == Outcome.SEATED) == inner.astype(bool)
+            lo = np.where(same, mid, lo)
+            hi = np.where(same, hi, mid)
+        crossing[ray, k] = 0.5 * (lo + hi)
+    tail_lo = _rayleigh_tail(np.broadcast_to(r[:-1], crossing.shape))
+    tail_c = _rayleigh_tail(crossing)
+    tail_hi = _rayleigh_tail(np.broadcast_to(r[1:], crossing.shape))
+    mass = seated[:, :-1] * (tail_lo - tail_c) + seated[:, 1:] * (tail_c - tail_hi)
+    total = mass.sum(axis=1) + seated[:, -1] * _rayleigh_tail(np.array(RAY_RADIUS))
+    return float(total.mean())
+
+
+def seat_probability(
+    design: FaceDesign,
+    x0: npt.ArrayLike,
+    theta0: npt.ArrayLike,
+    cov: npt.ArrayLike,
+    *,
+    physics: Physics | None = None,
+    atlas: AcceptanceAtlas | None = None,
+    rays: int = DEFAULT_RAYS,
+) -> float | FloatArray:
+    """Probability that the dock seats when the true (x0, theta0) is Gaussian around the
+    estimate, for one query or many.
+
+    Parameters
+    ----------
+    design : FaceDesign
+    x0, theta0 : float or array
+        Estimated lateral offset (the design's length unit) and angle (rad); broadcast.
+    cov : (2, 2) or (n, 2, 2) array
+        Covariance of (x0, theta0): units length^2, length rad, rad^2; n of them for n poses
+        (or for one pose: then one probability per covariance). Zero gives the exact
+        prediction's outcome (1.0 or 0.0); a singular covariance (one direction certain) is
+        accepted.
+    physics : Physics, optional
+        As for :func:`~xface_core.predict` (default ``Physics()``).
+    atlas : AcceptanceAtlas, optional
+        Built for this design and physics; default: one is built (seconds: pass it in to
+        ask many questions).
+    rays : int
+        Directions of the polar quadrature (default 128).
+
+    Returns
+    -------
+    float or (n,) array
+        A float when x0 and theta0 are scalars.
+
+    Raises
+    ------
+    InputError
+        A non-finite mean.
+    XfaceValueError
+        A covariance of the wrong shape, not symmetric or not positive semi-definite; an atlas
+        for another design or physics.
+
+    Examples
+    --------
+    >>> from xface_core import v_face
+    >>> from xface_core.atlas import build_atlas
+    >>> d = v_face(0.5, 1.0)
+    >>> a = build_atlas(d, lateral_step=1 / 16, angle_step=0.05, angle_range=1.6)
+    >>> seat_probability(d, 0.0, 0.0, [[0.0, 0.0], [0.0, 0.0]], atlas=a)
+    1.0
+    >>> 0.0 < seat_probability(d, 0.0, 0.0, [[0.04, 0.0], [0.0, 0.04]], atlas=a) < 1.0
+    True
+    """
+    phys = Physics() if physics is None else physics
+    count: object = rays
+    if isinstance(count, bool) or not isinstance(count, int) or not 4 <= rays <= 4096:
+        raise XfaceValueError(f"rays must be an integer in [4, 4096], got {rays!r}")
+    xb, tb = np.broadcast_arrays(
+        np.asarray(x0, dtype=np.float64), np.asarray(theta0, dtype=np.float64)
+    )
+    scalar = xb.ndim == 0 and np.ndim(cov) == 2
+    if scalar or np.ndim(cov) != 3:
+        xs, ts = xb.ravel(), tb.ravel()
+    else:  # one pose, many covariances: the pose repeats
+        n = np.shape(cov)[0]
+        xs, ts = np.broadcast_to(xb.ravel(), (n,)), np.broadcast_to(tb.ravel(), (n,))
+        xb = xs
+    if not (np.isfinite(xs).all() and np.isfinite(ts).all()):
+        raise InputError("x0 and theta0 must be finite")
+    cov_c = checked_covariances(cov, xs.size)
+    at = build_atlas(design, physics=phys) if atlas is None else atlas
+    at = at.bound_to(design, phys)
+    w = design.width
+    # Covariance in (D, rad): x scales by 1/w.
+    scale = np.array([1.0 / w, 1.0])
+    factors = pose_factors(cov_c * scale[None, :, None] * scale[None, None, :])
+    at_mean = predict_batch(design, xs, ts, physics=phys).outcome
+    bad = at_mean == Outcome.INVALID_INPUT
+    if bad.any():
+        raise InputError(f"the pose ({xs[bad][0]!r}, {ts[bad][0]!r}) cannot be simulated")
+    out = np.array(
+        [
+            _one_query(at, (xs[n] / w, ts[n]), factors[n], bool(at_mean[n] == Outcome.SEATED), rays)
+            for n in range(xs.size)
+        ]
+    )
+    return float(out[0]) if scalar else out.reshape(xb.shape)
