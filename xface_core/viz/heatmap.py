@@ -14,10 +14,9 @@ from pathlib import Path
 
 import numpy as np
 import numpy.typing as npt
-from PIL import Image, ImageDraw
+from PIL import Image, ImageDraw, ImageFont
 
 from xface_core.errors import XfaceValueError
-from xface_core.viz.mapimage import _INK, _PAD, _PAPER, _font, _text_size
 
 __all__ = ["ramp_colors", "save_heatmap_png"]
 
@@ -25,6 +24,23 @@ __all__ = ["ramp_colors", "save_heatmap_png"]
 _RAMP = np.array(
     [(68, 1, 84), (59, 82, 139), (33, 145, 140), (94, 201, 98), (253, 231, 37)], dtype=np.float64
 )
+
+_PAD = 8
+_INK = (0, 0, 0)
+_PAPER = (255, 255, 255)
+
+_Font = ImageFont.FreeTypeFont | ImageFont.ImageFont
+
+
+def _font(size: int) -> _Font:
+    # Pillow's bundled font (no system fonts needed on a bare machine).
+    return ImageFont.load_default(size=size)
+
+
+def _text_size(font: _Font, text: str) -> tuple[int, int]:
+    left, top, right, bottom = font.getbbox(text)
+    return int(np.ceil(right - left)), int(np.ceil(bottom - top))
+
 
 #: Pixels per cell side: room for a four-digit value.
 CELL_PX = 44
