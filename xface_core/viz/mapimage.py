@@ -211,7 +211,13 @@ def draw_map(ax: Axes, amap: AcceptanceMapLike, *, title: str | None = None) -> 
         box = _draw_region(ax, centred, x_edges, t_edges, dashed=True)
         box.set_label(_extent_label("centred on the aligned pose", centred, x0, theta0, unit))
         handles.append(
-            Patch(facecolor="0.6", edgecolor="white", linestyle=(0, (3, 2)), label=box.get_label())
+            Patch(
+                facecolor=rgb01(_COLORS[Outcome.SEATED]),
+                edgecolor="white",
+                linestyle=(0, (3, 2)),
+                linewidth=pt(2),
+                label=box.get_label(),
+            )
         )
     if x_edges[0] <= 0.0 <= x_edges[-1] and t_edges[0] <= 0.0 <= t_edges[-1]:
         (aligned,) = ax.plot(
