@@ -4,8 +4,9 @@ cross-check xface against an independent engine, and run design studies (``sweep
 
 Lengths are in units of D unless ``--width`` gives D in metres (or any unit): then x0 and
 y-start are read, and lengths printed, in that unit. Plain text by default, ``--json`` for
-machines. Recordings (``--rrd``), pictures (``--png``) and the bench plot need the ``viz``
-extra (rerun-sdk, pillow); without it they exit with code 2 and say so, before simulating.
+machines. Recordings (``--rrd``), pictures (``--png``, ``--svg``) and the bench plot need the
+``viz`` extra (rerun-sdk, matplotlib); without it they exit with code 2 and say so, before
+simulating.
 ``xface crosscheck`` needs the ``crosscheck`` extra (pymunk) in the same way.
 """
 
