@@ -87,7 +87,7 @@ def cell_edges(values: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
 
 def _length_unit(design: FaceDesign) -> str:
     """The unit x0 is drawn in: D itself, or the design's length unit when D is not 1."""
-    return "D" if design.width == 1.0 else f"length units (D = {design.width:g})"
+    return "D" if design.width == 1.0 else f"length unit, D = {design.width:g}"
 
 
 def _default_title(design: FaceDesign) -> str:
@@ -117,7 +117,7 @@ def _extent_label(
     degrees): the same numbers as ``xface map``'s text and JSON."""
     r0, r1, c0, c1 = rect
     t_lo, t_hi = np.degrees(theta0[c0]), np.degrees(theta0[c1 - 1])
-    unit = "D" if unit == "D" else "(length)"
+    unit = "D" if unit == "D" else "(length unit)"
     return (
         f"{name}, {r1 - r0} x {c1 - c0} cells:\n"
         f"$x_0$ in [{x0[r0]:.3g}, {x0[r1 - 1]:.3g}] {unit}\n"

@@ -9,6 +9,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
+from xface_core.cli import main
 from xface_core.errors import XfaceValueError
 from xface_core.geometry import x_face
 from xface_core.outcome import Outcome
@@ -101,3 +102,25 @@ def test_a_centred_region_with_unseated_cells_is_refused(amap: SimpleNamespace) 
     amap.centred = (slice(2, 6), slice(2, 7))
     with pytest.raises(XfaceValueError, match="centred"):
         map_figure(amap)
+
+
+def test_x0_is_in_the_length_unit_when_d_is_not_1(amap: SimpleNamespace) -> None:
+    amap.design = x_face(0.25, 0.25, width=0.05)
+    amap.x0 = amap.x0 * 0.05
+    fig, _ = map_figure(amap)
+    assert "D = 0.05" in fig.axes[0].get_ylabel()
+
+
+def test_cli_map_writes_svg_and_png(tmp_path: Path) -> None:
+    svg, png = tmp_path / "m.svg", tmp_path / "m.png"
+    argv = ["map", "--face", "V", "--grid", "11", "--svg", str(svg), "--png", str(png)]
+    assert main(argv) == 0
+    assert svg.read_bytes().lstrip().startswith(b"<?xml")
+    assert png.read_bytes()[:4] == b"\x89PNG"
+
+
+def test_cli_map_png_to_a_missing_folder_is_one_error_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["map", "--grid", "11", "--svg", str(tmp_path / "no" / "m.svg")]) == 2
+    assert capsys.readouterr().err.startswith("xface: error:")
