@@ -397,10 +397,19 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     ]
     if args.png or args.svg:
         from .viz.comparefig import save_comparison
+        from .viz.mapimage import design_title
 
+        # The panels name the physics when it is not the paper's: a comparison with and
+        # without friction would otherwise show two identical titles.
+        titles = [
+            design_title(d)
+            + (f", friction {ph.friction:g}" if ph.friction else "")
+            + (f", c_B/c_M {ph.damping_ratio:g}" if ph.damping_ratio != 1.0 else "")
+            for _, ph, d in sides
+        ]
         for path, fmt in ((args.png, "png"), (args.svg, "svg")):
             if path:
-                save_comparison(maps[0], maps[1], path, fmt=fmt)  # type: ignore[arg-type]
+                save_comparison(maps[0], maps[1], path, labels=(titles[0], titles[1]), fmt=fmt)  # type: ignore[arg-type]
     counts = {
         "both": diff.count(SeatedIn.BOTH),
         "only_a": diff.count(SeatedIn.ONLY_A),

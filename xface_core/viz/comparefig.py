@@ -15,7 +15,7 @@ from matplotlib.patches import Patch
 from xface_core.viz.figures import PictureFormat, fit_axes, new_figure, picture_format, save
 from xface_core.viz.mapdiff import MapDifference, SeatedIn, map_difference
 from xface_core.viz.mapgrid import AcceptanceMapLike, check_scale, checked_grid
-from xface_core.viz.mapimage import cell_edges, draw_map, rgb01
+from xface_core.viz.mapimage import cell_edges, cell_pixels, draw_map, rgb01
 
 __all__ = ["DIFFERENCE_COLORS", "save_comparison"]
 
@@ -43,11 +43,12 @@ def save_comparison(
     path: str | Path,
     *,
     labels: tuple[str, str] | None = None,
-    scale: int = 6,
+    scale: int | None = None,
     fmt: PictureFormat | None = None,
 ) -> MapDifference:
     """Write A, B and their difference map side by side to ``path`` (PNG or SVG, ``fmt`` or
-    the suffix); ``labels`` are the panels' first title lines (default: the designs).
+    the suffix); ``labels`` are the panels' first title lines (default: the designs);
+    ``scale`` pixels per cell side (default: 6 on grids up to 83 nodes, fewer above).
 
     Returns
     -------
@@ -62,10 +63,11 @@ def save_comparison(
         suffix is neither .png nor .svg (without ``fmt``).
     """
     kind = picture_format(path) if fmt is None else fmt
-    scale = check_scale(scale)
     diff = map_difference(a, b)
     x0, theta0, outcomes = checked_grid(a)
     n, m = outcomes.shape
+    # Three panels: smaller cells than one map's (6 pixels on the usual 41 x 41 grid).
+    scale = cell_pixels(outcomes.shape, most=6, room=500) if scale is None else check_scale(scale)
     fig = new_figure()
     first = fig.add_axes((0.1, 0.1, 0.2, 0.5))
     # Shared axes: the difference panel gets the maps' limits and ticks.

@@ -52,7 +52,9 @@ __all__ = [
     "AcceptanceMapLike",
     "MapPicture",
     "cell_edges",
+    "cell_pixels",
     "checked_grid",
+    "design_title",
     "draw_map",
     "guaranteed_cells",
     "map_figure",
@@ -90,7 +92,8 @@ def _length_unit(design: FaceDesign) -> str:
     return "D" if design.width == 1.0 else f"length unit, D = {design.width:g}"
 
 
-def _default_title(design: FaceDesign) -> str:
+def design_title(design: FaceDesign) -> str:
+    """A design as a picture's title names it: "X-Face, H/D = 0.25, r_p = 1 D" (mathtext)."""
     if design.kind == "custom":
         return f"custom face, L = {design.mated_distance:g} D"
     return f"{design.kind}-Face, H/D = {design.h_over_d:g}, $r_p$ = {design.r_p:g} D"
@@ -188,7 +191,7 @@ def draw_map(ax: Axes, amap: AcceptanceMapLike, *, title: str | None = None) -> 
     ax.set_xlabel(r"initial angle $\theta_0$ (deg)", fontsize=10)
     ax.set_ylabel(f"lateral offset $x_0$ ({unit})", fontsize=10)
     _axis_ticks(ax, t_edges)
-    heading = title if title is not None else _default_title(design)
+    heading = title if title is not None else design_title(design)
     ax.set_title(f"{heading}\nM = {amap.M} of {outcomes.size} seated", fontsize=10)
 
     handles: list[Artist] = [
@@ -239,14 +242,28 @@ def draw_map(ax: Axes, amap: AcceptanceMapLike, *, title: str | None = None) -> 
     return handles
 
 
+def cell_pixels(shape: tuple[int, ...], *, most: int = 8, room: int = 660) -> int:
+    """Pixels per cell side for a grid of ``shape``: ``most``, or fewer so the cells stay
+    within about ``room`` pixels, at least 1 (a 41 x 41 map gets 8, 161 x 161 gets 4,
+    1001 x 1001 gets 1; a picture of 8 pixels per cell of a 1001 grid would be 64 megapixels).
+
+    Examples
+    --------
+    >>> cell_pixels((41, 41)), cell_pixels((161, 161)), cell_pixels((1001, 1001))
+    (8, 4, 1)
+    """
+    return max(1, min(most, room // max(shape)))
+
+
 def map_figure(
-    amap: AcceptanceMapLike, *, scale: int = 8, title: str | None = None
+    amap: AcceptanceMapLike, *, scale: int | None = None, title: str | None = None
 ) -> tuple[Figure, PixelBox]:
     """The map as a figure (see :func:`draw_map`) with its legend on the right; each cell
-    ``scale`` x ``scale`` pixels. Returns the figure and the cells' pixel box in it."""
-    scale = check_scale(scale)
+    ``scale`` x ``scale`` pixels (default: :func:`cell_pixels`). Returns the figure and the
+    cells' pixel box in it."""
     _, _, outcomes = checked_grid(amap)
     n, m = outcomes.shape
+    scale = cell_pixels(outcomes.shape) if scale is None else check_scale(scale)
     fig = new_figure()
     ax = fig.add_axes((0.1, 0.1, 0.5, 0.5))
     handles = draw_map(ax, amap, title=title)
@@ -267,7 +284,7 @@ def save_map_picture(
     amap: AcceptanceMapLike,
     path: str | Path,
     *,
-    scale: int = 8,
+    scale: int | None = None,
     title: str | None = None,
     fmt: PictureFormat | None = None,
 ) -> MapPicture:
@@ -285,8 +302,9 @@ def save_map_picture(
         The map to draw.
     path : str or Path
         Where to write (the parent folder must exist).
-    scale : int
-        Pixels per cell side, 1..64.
+    scale : int, optional
+        Pixels per cell side, 1..64; default :func:`cell_pixels` (8 up to 82 nodes per
+        axis, fewer on larger grids).
     title : str, optional
         The first title line; ``M = ... of ... seated`` always follows. Default: the design
         ("X-Face, H/D = 0.25, r_p = 1 D").
@@ -335,7 +353,7 @@ def save_map_png(
     amap: AcceptanceMapLike,
     path: str | Path,
     *,
-    scale: int = 8,
+    scale: int | None = None,
     title: str | None = None,
 ) -> MapPicture:
     """:func:`save_map_picture` as PNG, whatever the suffix of ``path``."""

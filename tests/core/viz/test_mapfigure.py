@@ -124,3 +124,17 @@ def test_cli_map_png_to_a_missing_folder_is_one_error_line(
 ) -> None:
     assert main(["map", "--grid", "11", "--svg", str(tmp_path / "no" / "m.svg")]) == 2
     assert capsys.readouterr().err.startswith("xface: error:")
+
+
+def test_a_large_grid_gets_smaller_cells() -> None:
+    grid = np.full((161, 161), BAD)
+    big = SimpleNamespace(
+        x0=np.linspace(-1.0, 1.0, 161),
+        theta0=np.linspace(-math.pi / 2, math.pi / 2, 161),
+        outcomes=grid,
+        M=0,
+        design=x_face(0.25, 1.0),
+        guaranteed=None,
+    )
+    _, box = map_figure(big)
+    assert (box.right - box.left, box.bottom - box.top) == (161 * 4, 161 * 4)
