@@ -71,6 +71,9 @@ class AcceptanceMapLike(Protocol):
     guaranteed : object or None
         The largest all-SEATED axis-aligned rectangle as index ranges (see
         :func:`guaranteed_cells` for the accepted forms), or None.
+
+    A map may also have ``centred`` (the largest all-SEATED rectangle centred on the
+    aligned pose, in the same forms); the pictures draw it where it differs.
     """
 
     @property
@@ -93,12 +96,13 @@ class AcceptanceMapLike(Protocol):
 
 
 class MapPicture(NamedTuple):
-    """Where :func:`save_map_picture` wrote its picture and where the cells are in it."""
+    """Where :func:`~xface_core.viz.mapimage.save_map_picture` wrote its picture and where
+    the cells are in it."""
 
     path: Path
     """The picture file (PNG or SVG)."""
     size: tuple[int, int]
-    """(width, height) of the picture in pixels."""
+    """(width, height) of the picture in pixels (an SVG's at 100 pixels per inch)."""
     cells: tuple[int, int, int, int]
     """(left, top, right, bottom) pixel box of the grid cells (right/bottom exclusive)."""
 
