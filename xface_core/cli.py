@@ -4,8 +4,9 @@ cross-check xface against an independent engine, and run design studies (``sweep
 
 Lengths are in units of D unless ``--width`` gives D in metres (or any unit): then x0 and
 y-start are read, and lengths printed, in that unit. Plain text by default, ``--json`` for
-machines. Recordings (``--rrd``), pictures (``--png``) and the bench plot need the ``viz``
-extra (rerun-sdk, pillow); without it they exit with code 2 and say so, before simulating.
+machines. Recordings (``--rrd``), pictures (``--png``, ``--svg``) and the bench plot need the
+``viz`` extra (rerun-sdk, matplotlib); without it they exit with code 2 and say so, before
+simulating.
 ``xface crosscheck`` needs the ``crosscheck`` extra (pymunk) in the same way.
 """
 
@@ -42,7 +43,11 @@ __all__ = ["main"]
 _VIZ_HINT = "pip install 'xface[viz]'"
 
 #: Options that record or draw: (argument name, option, the module of xface_core.viz it needs).
-_VIZ_OPTIONS = (("png", "--png", "mapimage"), ("rrd", "--rrd", "recording"))
+_VIZ_OPTIONS = (
+    ("png", "--png", "mapimage"),
+    ("svg", "--svg", "mapimage"),
+    ("rrd", "--rrd", "recording"),
+)
 
 
 #: What to install for ``xface crosscheck``.
@@ -59,8 +64,9 @@ class _CrosscheckMissing(Exception):
 
 def _check_viz(args: argparse.Namespace) -> None:
     """Import the viz modules the chosen options need, before any simulation runs."""
+    pictures = {"design": "heatmap", "compare": "comparefig"}
     needed = [
-        (option, "heatmap" if args.command == "design" else module)
+        (option, pictures.get(args.command, module) if name != "rrd" else module)
         for name, option, module in _VIZ_OPTIONS
         if getattr(args, name, None)
     ]
@@ -344,10 +350,12 @@ def _cmd_map(args: argparse.Namespace) -> int:
     finally:
         if bar is not None:
             bar.close()
-    if args.png:
-        from .viz.mapimage import save_map_png
+    if args.png or args.svg:
+        from .viz.mapimage import save_map_picture
 
-        save_map_png(amap, args.png)
+        for path, fmt in ((args.png, "png"), (args.svg, "svg")):
+            if path:
+                save_map_picture(amap, path, fmt=fmt)  # type: ignore[arg-type]
     if args.rrd:
         from .viz.recording import default_blueprint, log_acceptance_map, new_recording
 
@@ -391,6 +399,94 @@ def _cmd_map(args: argparse.Namespace) -> int:
                 f"{label}: x0 in [{ext[0]:+.4g}, {ext[1]:+.4g}], theta0 in "
                 f"[{ext[2]:+.4f}, {ext[3]:+.4f}] rad ({len(rows)} x {len(cols)} cells)"
             )
+    return 0
+
+
+def _compare_args(p: argparse.ArgumentParser) -> None:
+    """Design B of ``xface compare``: each --vs-* option replaces A's value, the rest is A's."""
+    p.add_argument("--vs-face", type=str.upper, choices=("X", "V", "S"), default=None)
+    p.add_argument("--vs-h-over-d", type=float, default=None, help="B's H/D (default: A's)")
+    p.add_argument("--vs-rp", type=float, default=None, help="B's r_p in D (default: A's)")
+    p.add_argument("--vs-face-file", default=None, help="B's face file (default: A's face)")
+    p.add_argument("--vs-damping-ratio", type=float, default=None, help="B's c_B / c_M")
+    p.add_argument("--vs-friction", type=float, default=None, help="B's Coulomb mu")
+    p.add_argument("--grid", type=int, default=41, help="nodes per axis (odd)")
+    p.add_argument("--theta-grid", choices=("symmetric", "paper"), default="symmetric")
+    p.add_argument("--png", default=None, help="write A, B and the difference map as PNG")
+    p.add_argument("--svg", default=None, help="the same picture as SVG")
+
+
+def _compare_b(args: argparse.Namespace) -> argparse.Namespace:
+    """The arguments of design B: A's, with every --vs-* option given put in."""
+    b = argparse.Namespace(**vars(args))
+    for name in ("face", "h_over_d", "rp", "face_file", "damping_ratio", "friction"):
+        value = getattr(args, f"vs_{name}")
+        if value is not None:
+            setattr(b, name, value)
+    if args.vs_face_file is None and (
+        args.vs_face is not None or args.vs_h_over_d is not None or args.vs_rp is not None
+    ):
+        b.face_file = None  # B is a built-in face even when A is read from a file
+    return b
+
+
+def _cmd_compare(args: argparse.Namespace) -> int:
+    from .viz.mapdiff import SeatedIn, map_difference
+
+    b_args = _compare_b(args)
+    sides = [(args, _physics(args), _design(args)), (b_args, _physics(b_args), _design(b_args))]
+    maps = [
+        acceptance_map(design, grid=args.grid, theta_kind=args.theta_grid, physics=physics)
+        for _, physics, design in sides
+    ]
+    diff = map_difference(maps[0], maps[1])
+    labels = [
+        f"{_design_label(d)}, damping ratio {ph.damping_ratio:g}, friction {ph.friction:g}"
+        for _, ph, d in sides
+    ]
+    if args.png or args.svg:
+        from .viz.comparefig import save_comparison
+        from .viz.mapimage import design_title
+
+        # The panels name the physics when it is not the paper's: a comparison with and
+        # without friction would otherwise show two identical titles.
+        titles = [
+            design_title(d)
+            + (f", friction {ph.friction:g}" if ph.friction else "")
+            + (f", c_B/c_M {ph.damping_ratio:g}" if ph.damping_ratio != 1.0 else "")
+            for _, ph, d in sides
+        ]
+        for path, fmt in ((args.png, "png"), (args.svg, "svg")):
+            if path:
+                save_comparison(maps[0], maps[1], path, labels=(titles[0], titles[1]), fmt=fmt)  # type: ignore[arg-type]
+    counts = {
+        "both": diff.count(SeatedIn.BOTH),
+        "only_a": diff.count(SeatedIn.ONLY_A),
+        "only_b": diff.count(SeatedIn.ONLY_B),
+        "neither": diff.count(SeatedIn.NEITHER),
+    }
+    if args.json:
+        # Each map without its grid: the counts, M and regions are the comparison.
+        summary = [
+            {k: v for k, v in _map_json(amap).items() if k not in ("x0", "theta0", "outcomes")}
+            for amap in maps
+        ]
+        out = {
+            "a": {**summary[0], "label": labels[0]},
+            "b": {**summary[1], "label": labels[1]},
+            "seated": counts,
+            "same_outcome": diff.same_outcome,
+        }
+        print(json.dumps(out))
+        return 0
+    cells = maps[0].outcomes.size
+    print(f"A  {labels[0]}: M = {diff.M_a} of {cells}")
+    print(f"B  {labels[1]}: M = {diff.M_b} of {cells}")
+    print(
+        f"seated in both {counts['both']}, only in A {counts['only_a']}, only in B "
+        f"{counts['only_b']}, in neither {counts['neither']}; same outcome in "
+        f"{diff.same_outcome} of {cells} cells"
+    )
     return 0
 
 
@@ -599,9 +695,17 @@ def build_parser() -> argparse.ArgumentParser:
         help="boundary-following refinement from this coarse grid (odd, divides the grid)",
     )
     p.add_argument("--png", default=None, help="write a PNG picture of the map")
+    p.add_argument("--svg", default=None, help="write an SVG picture of the map")
     p.add_argument("--rrd", default=None, help="write a rerun recording of the map")
     p.add_argument("--quiet", action="store_true", help="no progress bar on stderr")
     p.set_defaults(func=_cmd_map)
+
+    p = sub.add_parser(
+        "compare", help="two designs' acceptance maps: where each seats, side by side"
+    )
+    _design_args(p)
+    _compare_args(p)
+    p.set_defaults(func=_cmd_compare)
 
     p = sub.add_parser("table", help="the paper's M tables (rows H/D, columns r_p)")
     p.add_argument("--face", type=str.upper, choices=("X", "V", "S", "ALL"), default="ALL")

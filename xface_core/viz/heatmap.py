@@ -1,4 +1,4 @@
-"""A design search's criterion over its H/D x r_p grid as a PNG heat map (pillow).
+"""A design search's criterion over its H/D x r_p grid as a PNG heat map (matplotlib).
 
 Rows are H/D (growing upwards), columns r_p (growing to the right), like the paper's tables
 turned so that both axes grow away from the origin; each cell shows its value, the best cell
@@ -14,10 +14,11 @@ from pathlib import Path
 
 import numpy as np
 import numpy.typing as npt
-from PIL import Image, ImageDraw
+from matplotlib.colors import LinearSegmentedColormap
+from matplotlib.patches import Rectangle
 
 from xface_core.errors import XfaceValueError
-from xface_core.viz.mapimage import _INK, _PAD, _PAPER, _font, _text_size
+from xface_core.viz.figures import fit_axes, new_figure, pt, save
 
 __all__ = ["ramp_colors", "save_heatmap_png"]
 
@@ -70,69 +71,57 @@ def save_heatmap_png(
     title: str = "",
 ) -> Path:
     """Write ``values`` (rows H/D, columns r_p; integers, or fractions shown to three
-    decimals) as a heat map PNG at ``path``.
+    decimals) as a heat map PNG at ``path`` (a matplotlib figure, CELL_PX pixels per cell).
 
-    ``best`` (row, column) is outlined. Raises :class:`XfaceValueError` when the shapes do
-    not agree.
+    The axes are the grid's own H/D and r_p values, one cell each (a search's grid need not
+    be evenly spaced); ``best`` (row, column) is outlined. Raises :class:`XfaceValueError`
+    when the shapes do not agree.
 
     Examples
     --------
     >>> import tempfile
+    >>> from PIL import Image
     >>> with tempfile.TemporaryDirectory() as tmp:
     ...     p = save_heatmap_png([[1, 2], [3, 4]], [0.5, 1.0], [0.0, 1.0], Path(tmp) / "h.png")
     ...     Image.open(p).size[0] > 2 * CELL_PX
     True
     """
     grid = np.asarray(values, dtype=np.float64)
-    integral = bool(np.all(grid == np.round(grid)))
     if grid.ndim != 2 or grid.shape != (len(h_over_d), len(r_p)) or grid.size == 0:
         raise XfaceValueError(
             f"values must be (len(h_over_d), len(r_p)) = ({len(h_over_d)}, {len(r_p)}), "
             f"got {grid.shape}"
         )
+    integral = bool(np.all(grid == np.round(grid)))
     n, m = grid.shape
-    font, title_font = _font(13), _font(16)
-    line_h = _text_size(font, "Ag")[1] + 4
-    row_labels = [f"{h:.5g}" for h in h_over_d]
-    left = 2 * _PAD + line_h + max(_text_size(font, s)[0] for s in row_labels)
-    top = 3 * _PAD + _text_size(title_font, title or "Ag")[1]
-    right, bottom = left + m * CELL_PX, top + n * CELL_PX
-    bar_x = right + 3 * _PAD
-    top_text, bottom_text = (_value_text(v, integral) for v in (grid.max(), grid.min()))
-    width = max(bar_x + 20 + _PAD + _text_size(font, top_text)[0] + 2 * _PAD, right)
-    image = Image.new("RGB", (width, bottom + 2 * line_h + 2 * _PAD), _PAPER)
-    draw = ImageDraw.Draw(image)
-    draw.text((left, _PAD), title, font=title_font, fill=_INK)
+    fig = new_figure()
+    ax = fig.add_axes((0.1, 0.1, 0.5, 0.5))
+    lo, hi = float(grid.min()), float(grid.max())
+    cmap = LinearSegmentedColormap.from_list("xface_ramp", _RAMP / 255.0)
+    # All values equal: the ramp's middle, as ramp_colors gives it.
+    vmin, vmax = (lo - 1.0, hi + 1.0) if hi == lo else (lo, hi)
+    mesh = ax.pcolormesh(
+        np.arange(m + 1) - 0.5, np.arange(n + 1) - 0.5, grid, cmap=cmap, vmin=vmin, vmax=vmax
+    )
     colors = ramp_colors(grid)
-    for i in range(n):
-        y0 = top + (n - 1 - i) * CELL_PX  # H/D grows upwards
-        tw, th = _text_size(font, row_labels[i])
-        draw.text((left - _PAD - tw, y0 + (CELL_PX - th) // 2), row_labels[i], font=font, fill=_INK)
-        for j in range(m):
-            x0 = left + j * CELL_PX
-            rgb = colors[i, j]
-            draw.rectangle((x0, y0, x0 + CELL_PX - 1, y0 + CELL_PX - 1), fill=tuple(rgb.tolist()))
-            text = _value_text(grid[i, j], integral)
-            tw, th = _text_size(font, text)
-            xy = (x0 + (CELL_PX - tw) // 2, y0 + (CELL_PX - th) // 2 - 2)
-            draw.text(xy, text, font=font, fill=_ink_on(rgb))
-    for j, rp in enumerate(r_p):
-        label = f"{rp:.5g}"
-        tw, _ = _text_size(font, label)
-        draw.text(
-            (left + j * CELL_PX + (CELL_PX - tw) // 2, bottom + 2), label, font=font, fill=_INK
-        )
-    draw.text((left, bottom + line_h + 2), "r_p / D (columns), H/D (rows)", font=font, fill=_INK)
+    for (i, j), v in np.ndenumerate(grid):
+        ax.text(j, i, _value_text(v, integral), ha="center", va="center", fontsize=8,
+                color=np.array(_ink_on(colors[i, j])) / 255.0)  # fmt: skip
     if best is not None:
         bi, bj = best
-        x0, y0 = left + bj * CELL_PX, top + (n - 1 - bi) * CELL_PX
-        draw.rectangle((x0, y0, x0 + CELL_PX - 1, y0 + CELL_PX - 1), outline=_INK, width=3)
-        draw.rectangle((x0 + 3, y0 + 3, x0 + CELL_PX - 4, y0 + CELL_PX - 4), outline=_PAPER)
-    ramp = ramp_colors(np.linspace(1.0, 0.0, bottom - top))  # top of the bar: the maximum
-    image.paste(Image.fromarray(np.repeat(ramp[:, None, :], 20, axis=1)), (bar_x, top))
-    draw.text((bar_x + 20 + _PAD, top), top_text, font=font, fill=_INK)
-    _, th = _text_size(font, bottom_text)
-    draw.text((bar_x + 20 + _PAD, bottom - th - 4), bottom_text, font=font, fill=_INK)
-    out = Path(path)
-    image.save(out, format="PNG")
-    return out
+        for color, width in (("black", 4), ("white", 1.5)):  # white inside black: reads on any
+            ax.add_patch(Rectangle((bj - 0.5, bi - 0.5), 1.0, 1.0, fill=False,
+                                   edgecolor=color, linewidth=pt(width)))  # fmt: skip
+    r_labels = [f"{v:.4g}" for v in r_p]
+    # Upright labels while they fit in a cell (about 6 characters of 8 pt in CELL_PX).
+    upright = max(len(t) for t in r_labels) <= 6
+    ax.set_xticks(range(m), r_labels, fontsize=8, rotation=0 if upright else 90)
+    ax.set_yticks(range(n), [f"{v:.4g}" for v in h_over_d], fontsize=8)
+    ax.set_xlabel("$r_p$ / D", fontsize=10)
+    ax.set_ylabel("H / D", fontsize=10)
+    if title:
+        ax.set_title(title, fontsize=10)
+    cax = fig.add_axes((0.7, 0.1, 0.05, 0.5))
+    fig.colorbar(mesh, cax=cax).ax.tick_params(labelsize=8)
+    fit_axes(fig, [(ax, m * CELL_PX, n * CELL_PX), (cax, 16, n * CELL_PX)], gap=12)
+    return save(fig, path, "png")

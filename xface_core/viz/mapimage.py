@@ -1,370 +1,102 @@
-"""Acceptance maps as pictures: one fixed colour per outcome, PNG files with axes and a legend.
+"""Acceptance maps as figures with real axes (matplotlib): PNG or SVG, outcome colours with
+a legend of the counts, the guaranteed region(s) with their extents, the aligned pose and
+the reach limit marked, the design and M in the title.
 
-An acceptance map holds one :class:`~xface_core.outcome.Outcome` per initial pose on a grid:
-rows are lateral offsets ``x0`` (increasing), columns initial angles ``theta0`` (increasing).
-In every picture made here **theta0 runs along the horizontal axis (left to right) and x0 up
-the vertical axis (bottom to top)**, so the first grid row is the picture's bottom row.
-
-Any object with the attributes of :class:`AcceptanceMapLike` can be drawn; the map type of
-:mod:`xface_core.sweep` is one. This module needs only numpy and pillow (no rerun);
-:func:`checked_grid` is the one check of a map's shape and values, shared with the rerun
-recordings of :mod:`xface_core.viz.recording`.
+theta0 runs along the horizontal axis in degrees, x0 up the vertical axis (in D, or the
+design's length unit when D is not 1). The colours, the checks of a map and its regions as
+grid indices are :mod:`xface_core.viz.mapgrid`'s (re-exported here, where they used to be).
 """
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
-from typing import Any, NamedTuple, Protocol, TypeAlias
 
 import numpy as np
 import numpy.typing as npt
-from PIL import Image, ImageDraw, ImageFont
+from matplotlib.artist import Artist
+from matplotlib.axes import Axes
+from matplotlib.colors import BoundaryNorm, ListedColormap
+from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
+from matplotlib.patches import Patch, Rectangle
+from matplotlib.ticker import MaxNLocator
 
 from xface_core.errors import XfaceValueError
 from xface_core.geometry import FaceDesign
 from xface_core.outcome import Outcome
+from xface_core.viz.figures import (
+    PictureFormat,
+    PixelBox,
+    fit_axes,
+    new_figure,
+    picture_format,
+    pt,
+    save,
+)
+from xface_core.viz.mapgrid import (
+    _COLORS,
+    GUARANTEED_OUTLINE,
+    RGB,
+    AcceptanceMapLike,
+    MapPicture,
+    check_scale,
+    checked_grid,
+    guaranteed_cells,
+    map_to_rgb,
+    outcome_colors,
+    region_cells,
+)
 
 __all__ = [
+    "GUARANTEED_OUTLINE",
     "AcceptanceMapLike",
     "MapPicture",
+    "cell_edges",
+    "cell_pixels",
     "checked_grid",
+    "design_title",
+    "draw_map",
     "guaranteed_cells",
+    "map_figure",
     "map_to_rgb",
     "outcome_colors",
+    "save_map_picture",
     "save_map_png",
 ]
 
-RGB = tuple[int, int, int]
 
-# Okabe-Ito colours (distinguishable with the common colour-vision deficiencies); SEATED is
-# the green that the eye reads as "good", the failure modes are warm, the "not simulated"
-# outcomes are greys.
-_COLORS: dict[Outcome, RGB] = {
-    Outcome.INVALID_INPUT: (64, 64, 64),
-    Outcome.OUT_OF_REACH: (190, 190, 190),
-    Outcome.NO_CONTACT: (86, 180, 233),
-    Outcome.SEATED: (0, 158, 115),
-    Outcome.BAD_MATE: (213, 94, 0),
-    Outcome.PASSED: (230, 159, 0),
-    Outcome.UNRESOLVED: (204, 121, 167),
-}
+# --- the picture (matplotlib) -----------------------------------------------------------------
 
-#: Outline colour of the guaranteed-acceptance rectangle (black reads on every cell colour).
-GUARANTEED_OUTLINE: RGB = (0, 0, 0)
+#: Colour of the reach limit |x0| = L and of the centred region's outline.
+_REACH_COLOR = (0.25, 0.25, 0.25)
 
 
-class AcceptanceMapLike(Protocol):
-    """What a map must offer to be drawn or recorded (the sweep's map type has all of it).
-
-    Attributes
-    ----------
-    x0 : (n,) float array
-        Lateral offsets of the rows, strictly increasing, in the design's length unit.
-    theta0 : (m,) float array
-        Initial angles of the columns, strictly increasing (rad).
-    outcomes : (n, m) int array
-        :class:`~xface_core.outcome.Outcome` value per grid pose.
-    M : int
-        Number of SEATED cells.
-    design : FaceDesign
-        The connector the map was computed for.
-    guaranteed : object or None
-        The largest all-SEATED axis-aligned rectangle as index ranges (see
-        :func:`guaranteed_cells` for the accepted forms), or None.
-    """
-
-    @property
-    def x0(self) -> npt.NDArray[np.floating[Any]]: ...
-
-    @property
-    def theta0(self) -> npt.NDArray[np.floating[Any]]: ...
-
-    @property
-    def outcomes(self) -> npt.NDArray[np.integer[Any]]: ...
-
-    @property
-    def M(self) -> int: ...
-
-    @property
-    def design(self) -> FaceDesign: ...
-
-    @property
-    def guaranteed(self) -> object: ...
+def rgb01(color: RGB) -> tuple[float, float, float]:
+    """An 8-bit RGB colour as matplotlib's 0..1 floats."""
+    return (color[0] / 255.0, color[1] / 255.0, color[2] / 255.0)
 
 
-class MapPicture(NamedTuple):
-    """Where :func:`save_map_png` wrote its picture and where the cells are in it."""
-
-    path: Path
-    """The PNG file."""
-    size: tuple[int, int]
-    """(width, height) of the picture in pixels."""
-    cells: tuple[int, int, int, int]
-    """(left, top, right, bottom) pixel box of the grid cells (right/bottom exclusive)."""
-
-
-def outcome_colors() -> dict[Outcome, RGB]:
-    """The fixed RGB colour of every outcome (a fresh dict: changing it changes nothing).
-
-    Examples
-    --------
-    >>> colors = outcome_colors()
-    >>> colors[Outcome.SEATED]
-    (0, 158, 115)
-    >>> len(set(colors.values())) == len(Outcome)
-    True
-    """
-    return dict(_COLORS)
+def cell_edges(values: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+    """Cell edges around grid nodes: half way between neighbours, half a step past the ends
+    (a one-node axis gets a cell of width 1)."""
+    if values.size == 1:
+        return np.array([values[0] - 0.5, values[0] + 0.5])
+    mid = 0.5 * (values[1:] + values[:-1])
+    return np.concatenate(
+        ([values[0] - (mid[0] - values[0])], mid, [values[-1] + (values[-1] - mid[-1])])
+    )
 
 
-def checked_grid(
-    amap: AcceptanceMapLike,
-) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.int64]]:
-    """The map's axes and outcomes as plain arrays, or a clear error saying what is wrong.
-
-    Every picture and recording of a map starts here.
-
-    Returns
-    -------
-    (x0, theta0, outcomes) : (n,) float, (m,) float, (n, m) int64 arrays
-
-    Raises
-    ------
-    XfaceValueError
-        The axes are not non-empty, finite and strictly increasing, or the outcomes do not
-        match them in shape or hold a value that is not an :class:`Outcome`.
-
-    Examples
-    --------
-    >>> from types import SimpleNamespace
-    >>> amap = SimpleNamespace(x0=[0.0, 1.0], theta0=[0.0], outcomes=[[3], [9]])
-    >>> checked_grid(amap)
-    Traceback (most recent call last):
-    ...
-    xface_core.errors.XfaceValueError: map holds 9, which is not an Outcome value
-    """
-    x0 = np.asarray(amap.x0, dtype=np.float64)
-    theta0 = np.asarray(amap.theta0, dtype=np.float64)
-    raw = np.asarray(amap.outcomes)
-    if x0.ndim != 1 or theta0.ndim != 1 or x0.size == 0 or theta0.size == 0:
-        raise XfaceValueError("map axes x0 and theta0 must be non-empty 1-D arrays")
-    if raw.shape != (x0.size, theta0.size):
-        raise XfaceValueError(
-            f"map outcomes have shape {raw.shape}, expected (len(x0), len(theta0)) = "
-            f"{(x0.size, theta0.size)}"
-        )
-    if not (np.all(np.isfinite(x0)) and np.all(np.isfinite(theta0))):
-        raise XfaceValueError("map axes must be finite")
-    if np.any(np.diff(x0) <= 0.0) or np.any(np.diff(theta0) <= 0.0):
-        raise XfaceValueError("map axes x0 and theta0 must be strictly increasing")
-    if not np.issubdtype(raw.dtype, np.integer):
-        raise XfaceValueError(f"map outcomes must be integers, got dtype {raw.dtype}")
-    outcomes = raw.astype(np.int64)
-    valid = np.isin(outcomes, [int(o) for o in Outcome])
-    if not np.all(valid):
-        bad = int(outcomes[~valid][0])
-        raise XfaceValueError(f"map holds {bad}, which is not an Outcome value")
-    return x0, theta0, outcomes
+def _length_unit(design: FaceDesign) -> str:
+    """The unit x0 is drawn in: D itself, or the design's length unit when D is not 1."""
+    return "D" if design.width == 1.0 else f"length unit, D = {design.width:g}"
 
 
-def guaranteed_cells(amap: AcceptanceMapLike) -> tuple[int, int, int, int] | None:
-    """The guaranteed-acceptance rectangle as half-open grid index ranges, or None.
-
-    ``amap.guaranteed`` may be None, a pair of slices ``(rows, cols)``, a pair of ranges, or a
-    pair of ``(start, stop)`` integer pairs; all are read half-open, the Python way (the
-    rectangle covers ``outcomes[row_start:row_stop, col_start:col_stop]``).
-
-    Returns
-    -------
-    (row_start, row_stop, col_start, col_stop) or None
-
-    Raises
-    ------
-    XfaceValueError
-        The rectangle is empty, leaves the grid, or covers a cell that is not SEATED.
-
-    Examples
-    --------
-    >>> from types import SimpleNamespace
-    >>> from xface_core import x_face
-    >>> grid = np.full((3, 4), int(Outcome.SEATED))
-    >>> amap = SimpleNamespace(
-    ...     x0=np.arange(3.0),
-    ...     theta0=np.arange(4.0),
-    ...     outcomes=grid,
-    ...     M=12,
-    ...     design=x_face(0.25, 1.0),
-    ...     guaranteed=(slice(0, 2), slice(1, 4)),
-    ... )
-    >>> guaranteed_cells(amap)
-    (0, 2, 1, 4)
-    """
-    _, _, outcomes = checked_grid(amap)
-    g = amap.guaranteed
-    if g is None:
-        return None
-    try:
-        if not isinstance(g, tuple | list) or len(g) != 2:
-            raise TypeError("not a pair")
-        bounds = [_half_open(g[0]), _half_open(g[1])]
-    except (TypeError, ValueError):
-        raise XfaceValueError(
-            f"map.guaranteed must be None or (rows, cols) index ranges, got {g!r}"
-        ) from None
-    (r0, r1), (c0, c1) = bounds
-    n, m = outcomes.shape
-    if not (0 <= r0 < r1 <= n and 0 <= c0 < c1 <= m):
-        raise XfaceValueError(
-            f"guaranteed rectangle rows {r0}:{r1}, columns {c0}:{c1} is empty or leaves the "
-            f"{n} x {m} grid"
-        )
-    if np.any(outcomes[r0:r1, c0:c1] != int(Outcome.SEATED)):
-        raise XfaceValueError("the guaranteed rectangle covers cells that are not SEATED")
-    return r0, r1, c0, c1
-
-
-def _half_open(index_range: object) -> tuple[int, int]:
-    if isinstance(index_range, slice):
-        if index_range.step not in (None, 1):
-            raise ValueError("step")
-        return int(index_range.start or 0), int(index_range.stop)
-    if isinstance(index_range, range):
-        if index_range.step != 1:
-            raise ValueError("step")
-        return index_range.start, index_range.stop
-    if not isinstance(index_range, tuple | list) or len(index_range) != 2:
-        raise TypeError("an index range is a slice, a range or a (start, stop) pair")
-    start, stop = index_range
-    for bound in (start, stop):
-        if isinstance(bound, bool) or not isinstance(bound, int | np.integer):
-            raise TypeError("index ranges take integers")
-    return int(start), int(stop)
-
-
-def _check_scale(scale: object) -> int:
-    if isinstance(scale, bool) or not isinstance(scale, int | np.integer) or not 1 <= scale <= 64:
-        raise XfaceValueError(f"scale must be an integer in 1..64 (pixels per cell), got {scale!r}")
-    return int(scale)
-
-
-def map_to_rgb(amap: AcceptanceMapLike, *, scale: int = 8) -> npt.NDArray[np.uint8]:
-    """The map's cells as an RGB picture, ``scale`` x ``scale`` pixels per cell.
-
-    theta0 runs left to right, x0 bottom to top: picture row 0 is the grid's last row (the
-    largest x0). Colours are :func:`outcome_colors`.
-
-    Parameters
-    ----------
-    amap : AcceptanceMapLike
-        The map (n rows of x0, m columns of theta0).
-    scale : int
-        Pixels per cell side, 1..64.
-
-    Returns
-    -------
-    (n * scale, m * scale, 3) uint8 array
-
-    Examples
-    --------
-    >>> from types import SimpleNamespace
-    >>> from xface_core import x_face
-    >>> grid = np.array([[int(Outcome.SEATED), int(Outcome.PASSED)]] * 3)
-    >>> amap = SimpleNamespace(
-    ...     x0=np.array([-1.0, 0.0, 1.0]),
-    ...     theta0=np.array([-0.5, 0.5]),
-    ...     outcomes=grid,
-    ...     M=3,
-    ...     design=x_face(0.25, 1.0),
-    ...     guaranteed=None,
-    ... )
-    >>> rgb = map_to_rgb(amap, scale=4)
-    >>> rgb.shape
-    (12, 8, 3)
-    >>> tuple(int(c) for c in rgb[0, 7])  # top right: largest x0, largest theta0
-    (230, 159, 0)
-    """
-    scale = _check_scale(scale)
-    _, _, outcomes = checked_grid(amap)
-    lut = np.zeros((len(Outcome), 3), dtype=np.uint8)
-    for outcome, color in _COLORS.items():
-        lut[int(outcome)] = color
-    cells = lut[outcomes[::-1]]  # flip rows: x0 grows upwards
-    return np.repeat(np.repeat(cells, scale, axis=0), scale, axis=1)
-
-
-# --- the PNG ----------------------------------------------------------------------------------
-
-_FONT_PX = 13
-_PAD = 8
-_TICK = 4
-_INK: RGB = (0, 0, 0)
-_PAPER: RGB = (255, 255, 255)
-
-_Font: TypeAlias = ImageFont.FreeTypeFont | ImageFont.ImageFont
-#: (grid index, value) per tick.
-_Ticks: TypeAlias = list[tuple[int, float]]
-#: (text, swatch colour, outlined like the guaranteed rectangle) per legend row.
-_LegendEntry: TypeAlias = tuple[str, RGB, bool]
-
-
-def _font(size: int) -> _Font:
-    # Pillow's bundled font (no system fonts needed on a bare machine); it covers ASCII only,
-    # so labels say "theta0" and "-" rather than the Greek letter and the minus sign.
-    return ImageFont.load_default(size=size)
-
-
-def _text_size(font: _Font, text: str) -> tuple[int, int]:
-    left, top, right, bottom = font.getbbox(text)
-    return math.ceil(right - left), math.ceil(bottom - top)
-
-
-def _ticks(values: npt.NDArray[np.float64], nice: list[float]) -> _Ticks:
-    """Grid indices and values of the ``nice`` tick values that lie on the axis (within half
-    a cell); the axis ends when fewer than two do."""
-    half = 0.5 * float(np.min(np.diff(values))) if values.size > 1 else 0.5
-    chosen: _Ticks = []
-    for v in nice:
-        i = int(np.argmin(np.abs(values - v)))
-        if abs(values[i] - v) <= half and all(i != j for j, _ in chosen):
-            chosen.append((i, v))
-    if len(chosen) < 2:
-        chosen = [(0, float(values[0])), (values.size - 1, float(values[-1]))]
-    return chosen
-
-
-def _tick_label(v: float) -> str:
-    text = f"{v:.3g}"
-    return "0" if text in ("-0", "0.0", "-0.0") else text
-
-
-def _default_title(design: FaceDesign) -> str:
+def design_title(design: FaceDesign) -> str:
+    """A design as a picture's title names it: "X-Face, H/D = 0.25, r_p = 1 D" (mathtext)."""
     if design.kind == "custom":
         return f"custom face, L = {design.mated_distance:g} D"
-    return f"{design.kind}-Face, H/D = {design.h_over_d:g}, r_p = {design.r_p:g} D"
-
-
-class _Layout(NamedTuple):
-    """Where everything goes in the PNG (pixels)."""
-
-    left: int
-    """First pixel column of the cells."""
-    top: int
-    """First pixel row of the cells."""
-    right: int
-    """Pixel column just after the cells."""
-    bottom: int
-    """Pixel row just after the cells."""
-    width: int
-    height: int
-    line_h: int
-    """Height of one line of label text, and of one legend row."""
-    swatch: int
-    """Side of a legend colour swatch."""
-    n: int
-    """Grid rows (x0)."""
-    scale: int
-    """Pixels per cell side."""
+    return f"{design.kind}-Face, H/D = {design.h_over_d:g}, $r_p$ = {design.r_p:g} D"
 
 
 def _counts(amap: AcceptanceMapLike, outcomes: npt.NDArray[np.int64]) -> dict[Outcome, int]:
@@ -377,154 +109,207 @@ def _counts(amap: AcceptanceMapLike, outcomes: npt.NDArray[np.int64]) -> dict[Ou
     return counts
 
 
-def _axis_ticks(
-    x0: npt.NDArray[np.float64], theta0: npt.NDArray[np.float64], width_unit: float, scale: int
-) -> tuple[_Ticks, _Ticks]:
-    """Ticks of x0 / D (vertical axis) and of theta0 in degrees (horizontal axis)."""
-    x_ticks = _ticks(x0 / width_unit, [-1.0, -0.5, 0.0, 0.5, 1.0])
-    t_ticks = _ticks(np.degrees(theta0), [-90.0, -60.0, -30.0, 0.0, 30.0, 60.0, 90.0])
-    if len(t_ticks) > 2 and theta0.size * scale < 240:  # keep the labels apart on small pictures
-        t_ticks = t_ticks[::2]
-    return x_ticks, t_ticks
+def _extent_label(
+    name: str,
+    rect: tuple[int, int, int, int],
+    x0: npt.NDArray[np.float64],
+    theta0: npt.NDArray[np.float64],
+    unit: str,
+) -> str:
+    """The region's name, size in cells and its node extents (x0 in ``unit``, theta0 in
+    degrees): the same numbers as ``xface map``'s text and JSON."""
+    r0, r1, c0, c1 = rect
+    t_lo, t_hi = np.degrees(theta0[c0]), np.degrees(theta0[c1 - 1])
+    unit = "D" if unit == "D" else "(length unit)"
+    return (
+        f"{name}, {r1 - r0} x {c1 - c0} cells:\n"
+        f"$x_0$ in [{x0[r0]:.3g}, {x0[r1 - 1]:.3g}] {unit}\n"
+        rf"$\theta_0$ in [{t_lo:.3g}, {t_hi:.3g}] deg"
+    )
 
 
-def _legend(
-    counts: dict[Outcome, int], rect: tuple[int, int, int, int] | None
-) -> list[_LegendEntry]:
-    """One entry per outcome with its count, then the guaranteed rectangle's size."""
-    legend = [
-        (f"{o.name.lower().replace('_', ' ')}: {counts[o]}", _COLORS[o], False) for o in Outcome
+def _draw_region(
+    ax: Axes,
+    rect: tuple[int, int, int, int],
+    x_edges: npt.NDArray[np.float64],
+    t_edges: npt.NDArray[np.float64],
+    *,
+    dashed: bool,
+) -> Rectangle:
+    r0, r1, c0, c1 = rect
+    box = Rectangle(
+        (t_edges[c0], x_edges[r0]),
+        t_edges[c1] - t_edges[c0],
+        x_edges[r1] - x_edges[r0],
+        fill=False,
+        edgecolor=rgb01(GUARANTEED_OUTLINE) if not dashed else "white",
+        linewidth=pt(3 if not dashed else 2),
+        linestyle=(0, (3, 2)) if dashed else "-",
+        zorder=3,
+    )
+    ax.add_patch(box)
+    return box
+
+
+def _axis_ticks(ax: Axes, t_edges: npt.NDArray[np.float64]) -> None:
+    """Degrees in steps of 15, 30 or 60 on the usual half turn (as many as the axis length
+    has room for), matplotlib's own steps on small ranges; x0 keeps matplotlib's steps."""
+    if float(t_edges[-1] - t_edges[0]) >= 60.0:
+        ax.xaxis.set_major_locator(MaxNLocator(nbins="auto", steps=[1.5, 3, 6, 10]))
+    ax.tick_params(labelsize=9)
+
+
+def draw_map(ax: Axes, amap: AcceptanceMapLike, *, title: str | None = None) -> list[Artist]:
+    """Draw the map on ``ax``: cells in their outcome colours, the guaranteed region(s), the
+    aligned pose, the reach limit |x0| = L where it lies on the plot, axis labels and title.
+
+    theta0 (degrees) runs along the horizontal axis, x0 (D, or the design's length unit)
+    up. Returns the legend handles (each with its label set), for the caller to place.
+
+    Raises
+    ------
+    XfaceValueError
+        The map is malformed (see :func:`guaranteed_cells`) or ``amap.M`` disagrees with the
+        number of SEATED cells.
+    """
+    x0, theta0, outcomes = checked_grid(amap)
+    counts = _counts(amap, outcomes)
+    rect = guaranteed_cells(amap)
+    centred = region_cells(outcomes, getattr(amap, "centred", None), "centred")
+    design = amap.design
+    unit = _length_unit(design)
+    t_deg = np.degrees(theta0)
+    x_edges, t_edges = cell_edges(x0), cell_edges(t_deg)
+
+    cmap = ListedColormap([rgb01(_COLORS[o]) for o in sorted(Outcome, key=int)])
+    norm = BoundaryNorm(np.arange(len(Outcome) + 1) - 0.5, len(Outcome))
+    # rasterized: a 1001 x 1001 map stays one image in an SVG instead of a million paths.
+    ax.pcolormesh(t_edges, x_edges, outcomes, cmap=cmap, norm=norm, antialiased=False)
+    ax.collections[-1].set_rasterized(True)
+    ax.set_xlim(t_edges[0], t_edges[-1])
+    ax.set_ylim(x_edges[0], x_edges[-1])
+    ax.set_xlabel(r"initial angle $\theta_0$ (deg)", fontsize=10)
+    ax.set_ylabel(f"lateral offset $x_0$ ({unit})", fontsize=10)
+    _axis_ticks(ax, t_edges)
+    heading = title if title is not None else design_title(design)
+    ax.set_title(f"{heading}\nM = {amap.M} of {outcomes.size} seated", fontsize=10)
+
+    handles: list[Artist] = [
+        Patch(
+            facecolor=rgb01(_COLORS[o]),
+            edgecolor="0.35",
+            label=f"{o.name.lower().replace('_', ' ')} ({counts[o]})",
+        )
+        for o in Outcome
+        if counts[o]
     ]
     if rect is None:
-        legend.append(("guaranteed: none", _PAPER, True))
+        handles.append(Patch(facecolor="none", edgecolor="none", label="guaranteed: none"))
     else:
-        r0, r1, c0, c1 = rect
-        legend.append((f"guaranteed: {r1 - r0} x {c1 - c0}", _PAPER, True))
-    return legend
-
-
-def _layout(
-    font: _Font,
-    title_font: _Font,
-    heading: str,
-    x_ticks: _Ticks,
-    legend_rows: int,
-    shape: tuple[int, int],
-    scale: int,
-) -> _Layout:
-    """Title on top, x0 labels on the left, theta0 labels below, legend right."""
-    n, m = shape
-    tick_w = max(_text_size(font, _tick_label(v))[0] for _, v in x_ticks)
-    line_h = _text_size(font, "Ag")[1] + 4
-    left = _PAD + line_h + _PAD + tick_w + _TICK + 2
-    top = _PAD + _text_size(title_font, heading)[1] + 2 * _PAD
-    swatch = line_h - 3
-    # Sized for the widest possible entries, so every map of a grid size has one layout.
-    widest = [f"{o.name.lower().replace('_', ' ')}: {n * m}" for o in Outcome]
-    widest.append(f"guaranteed: {n} x {m}")
-    legend_w = max(_text_size(font, text)[0] for text in widest) + swatch + 3 * _PAD
-    right = left + m * scale
-    bottom = top + n * scale
-    width = max(right + 2 * _PAD + legend_w, left + _text_size(title_font, heading)[0] + _PAD)
-    height = max(bottom + _TICK + 2 * line_h + 2 * _PAD, top + legend_rows * line_h + _PAD)
-    return _Layout(left, top, right, bottom, width, height, line_h, swatch, n, scale)
-
-
-def _draw_guaranteed(
-    draw: ImageDraw.ImageDraw, lay: _Layout, rect: tuple[int, int, int, int]
-) -> None:
-    """Outline the guaranteed rectangle's cells (inside their pixel box)."""
-    r0, r1, c0, c1 = rect
-    left, top, n, scale = lay.left, lay.top, lay.n, lay.scale
-    # Rows are flipped in the picture: grid row r spans y from top + (n - 1 - r) * scale.
-    box = (left + c0 * scale, top + (n - r1) * scale, left + c1 * scale, top + (n - r0) * scale)
-    draw.rectangle(
-        (box[0], box[1], box[2] - 1, box[3] - 1),
-        outline=GUARANTEED_OUTLINE,
-        width=max(1, min(3, scale // 3)),
-    )
-
-
-def _draw_ticks(
-    draw: ImageDraw.ImageDraw, font: _Font, lay: _Layout, x_ticks: _Ticks, t_ticks: _Ticks
-) -> None:
-    """Tick marks and their values: x0 on the left edge, theta0 below the cells."""
-    left, top, n, scale = lay.left, lay.top, lay.n, lay.scale
-    for i, v in x_ticks:
-        y = top + (n - 1 - i) * scale + scale // 2
-        draw.line((left - 1 - _TICK, y, left - 1, y), fill=_INK)
-        label = _tick_label(v)
-        tw, th = _text_size(font, label)
-        draw.text((left - 2 - _TICK - 2 - tw, y - th // 2 - 2), label, font=font, fill=_INK)
-    for j, v in t_ticks:
-        x = left + j * scale + scale // 2
-        draw.line((x, lay.bottom, x, lay.bottom + _TICK), fill=_INK)
-        label = _tick_label(v)
-        tw, _ = _text_size(font, label)
-        draw.text((x - tw // 2, lay.bottom + _TICK + 2), label, font=font, fill=_INK)
-
-
-def _draw_axis_names(
-    image: Image.Image, draw: ImageDraw.ImageDraw, font: _Font, lay: _Layout
-) -> None:
-    """ "theta0 (deg)" centred below the ticks, "x0 / D" turned upright left of the cells."""
-    x_label = "theta0 (deg)"
-    tw, _ = _text_size(font, x_label)
-    draw.text(
-        (lay.left + (lay.right - lay.left - tw) // 2, lay.bottom + _TICK + lay.line_h + 2),
-        x_label,
-        font=font,
-        fill=_INK,
-    )
-    y_label = "x0 / D"
-    tw, _ = _text_size(font, y_label)
-    label_img = Image.new("RGB", (tw + 4, lay.line_h), _PAPER)
-    ImageDraw.Draw(label_img).text((2, 0), y_label, font=font, fill=_INK)
-    rotated = label_img.rotate(90, expand=True)
-    image.paste(rotated, (_PAD, lay.top + (lay.bottom - lay.top - rotated.height) // 2))
-
-
-def _draw_legend(
-    draw: ImageDraw.ImageDraw, font: _Font, lay: _Layout, legend: list[_LegendEntry]
-) -> None:
-    """A swatch and its text per entry, one line each, right of the cells."""
-    lx = lay.right + 2 * _PAD
-    swatch = lay.swatch
-    for k, (text, color, outlined) in enumerate(legend):
-        y = lay.top + k * lay.line_h
-        if outlined:
-            draw.rectangle(
-                (lx, y, lx + swatch, y + swatch), fill=color, outline=GUARANTEED_OUTLINE, width=2
+        box = _draw_region(ax, rect, x_edges, t_edges, dashed=False)
+        name = "guaranteed = centred" if centred == rect else "guaranteed"
+        box.set_label(_extent_label(name, rect, x0, theta0, unit))
+        handles.append(box)
+    if centred is not None and centred != rect:
+        box = _draw_region(ax, centred, x_edges, t_edges, dashed=True)
+        box.set_label(_extent_label("centred on the aligned pose", centred, x0, theta0, unit))
+        handles.append(
+            Patch(
+                facecolor=rgb01(_COLORS[Outcome.SEATED]),
+                edgecolor="white",
+                linestyle=(0, (3, 2)),
+                linewidth=pt(2),
+                label=box.get_label(),
             )
-        else:
-            draw.rectangle((lx, y, lx + swatch, y + swatch), fill=color, outline=(90, 90, 90))
-        draw.text((lx + swatch + _PAD, y), text, font=font, fill=_INK)
+        )
+    if x_edges[0] <= 0.0 <= x_edges[-1] and t_edges[0] <= 0.0 <= t_edges[-1]:
+        (aligned,) = ax.plot(
+            [0.0], [0.0], marker="P", markersize=pt(11), color="black",
+            markeredgecolor="white", markeredgewidth=pt(1.5), linestyle="none", zorder=4,
+            label=r"aligned pose ($x_0$ = 0, $\theta_0$ = 0)",
+        )  # fmt: skip
+        handles.append(aligned)
+    reach = design.mated_distance * design.width
+    shown = [y for y in (-reach, reach) if x_edges[0] < y < x_edges[-1]]
+    for y in shown:
+        ax.axhline(y, color=_REACH_COLOR, linewidth=pt(1.5), linestyle="--", zorder=2)
+    if shown:
+        length = f"{reach:.3g} D" if unit == "D" else f"{reach:.3g}"
+        handles.append(
+            Line2D([], [], color=_REACH_COLOR, linestyle="--", linewidth=pt(1.5),
+                   label=f"reach limit $|x_0|$ = L = {length}")
+        )  # fmt: skip
+    return handles
 
 
-def save_map_png(
+def cell_pixels(shape: tuple[int, ...], *, most: int = 8, room: int = 660) -> int:
+    """Pixels per cell side for a grid of ``shape``: ``most``, or fewer so the cells stay
+    within about ``room`` pixels, at least 1 (a 41 x 41 map gets 8, 161 x 161 gets 4,
+    1001 x 1001 gets 1; a picture of 8 pixels per cell of a 1001 grid would be 64 megapixels).
+
+    Examples
+    --------
+    >>> cell_pixels((41, 41)), cell_pixels((161, 161)), cell_pixels((1001, 1001))
+    (8, 4, 1)
+    """
+    return max(1, min(most, room // max(shape)))
+
+
+def map_figure(
+    amap: AcceptanceMapLike, *, scale: int | None = None, title: str | None = None
+) -> tuple[Figure, PixelBox]:
+    """The map as a figure (see :func:`draw_map`) with its legend on the right; each cell
+    ``scale`` x ``scale`` pixels (default: :func:`cell_pixels`). Returns the figure and the
+    cells' pixel box in it."""
+    _, _, outcomes = checked_grid(amap)
+    n, m = outcomes.shape
+    scale = cell_pixels(outcomes.shape) if scale is None else check_scale(scale)
+    fig = new_figure()
+    ax = fig.add_axes((0.1, 0.1, 0.5, 0.5))
+    handles = draw_map(ax, amap, title=title)
+    ax.legend(
+        handles=handles,
+        loc="upper left",
+        bbox_to_anchor=(1.03, 1.0),
+        borderaxespad=0.0,
+        frameon=False,
+        fontsize=9,
+        labelspacing=0.6,
+    )
+    (box,) = fit_axes(fig, [(ax, m * scale, n * scale)])
+    return fig, box
+
+
+def save_map_picture(
     amap: AcceptanceMapLike,
     path: str | Path,
     *,
-    scale: int = 8,
+    scale: int | None = None,
     title: str | None = None,
+    fmt: PictureFormat | None = None,
 ) -> MapPicture:
-    """Write the map as a PNG: coloured cells, axes, legend with counts, M in the title.
+    """Write the map as a PNG or SVG picture (``fmt``, default: from the path's suffix).
 
-    Layout: theta0 (degrees) on the horizontal axis, x0 / D on the vertical axis (x0 grows
-    upwards), the guaranteed-acceptance rectangle outlined in black, a legend on the right
-    with the colour and the number of cells of every outcome.
+    Layout: theta0 (degrees) on the horizontal axis, x0 (D) on the vertical axis (x0 grows
+    upwards), the guaranteed-acceptance rectangle outlined in black (the largest one centred
+    on the aligned pose dashed white when it differs), the aligned pose marked with a cross,
+    the reach limit |x0| = L dashed; a legend on the right with the count of every outcome
+    present and the regions' extents; the design and M in the title.
 
     Parameters
     ----------
     amap : AcceptanceMapLike
         The map to draw.
     path : str or Path
-        Where to write the PNG (the parent folder must exist).
-    scale : int
-        Pixels per cell side, 1..64.
+        Where to write (the parent folder must exist).
+    scale : int, optional
+        Pixels per cell side, 1..64; default :func:`cell_pixels` (8 up to 82 nodes per
+        axis, fewer on larger grids).
     title : str, optional
-        The title's text; ``M = ...`` (and the grid size) is always appended. Default: the
-        design ("X-Face, H/D = 0.25, r_p = 1 D").
+        The first title line; ``M = ... of ... seated`` always follows. Default: the design
+        ("X-Face, H/D = 0.25, r_p = 1 D").
+    fmt : {"png", "svg"}, optional
+        The file format; default from the suffix of ``path``.
 
     Returns
     -------
@@ -535,7 +320,8 @@ def save_map_png(
     ------
     XfaceValueError
         The map is malformed (see :func:`guaranteed_cells`), ``amap.M`` disagrees with the
-        number of SEATED cells, or ``scale`` is out of range.
+        number of SEATED cells, ``scale`` is out of range, or the suffix is neither .png nor
+        .svg (without ``fmt``).
 
     Examples
     --------
@@ -552,37 +338,23 @@ def save_map_png(
     ...     guaranteed=(slice(0, 5), slice(0, 7)),
     ... )
     >>> with tempfile.TemporaryDirectory() as tmp:
-    ...     picture = save_map_png(amap, Path(tmp) / "map.png", scale=4)
+    ...     picture = save_map_picture(amap, Path(tmp) / "map.svg", scale=4)
     >>> picture.cells[2] - picture.cells[0], picture.cells[3] - picture.cells[1]
     (28, 20)
     """
-    scale = _check_scale(scale)
-    x0, theta0, outcomes = checked_grid(amap)
-    rect = guaranteed_cells(amap)
-    counts = _counts(amap, outcomes)
-    design = amap.design
-    n, m = outcomes.shape
+    kind = picture_format(path) if fmt is None else fmt
+    fig, box = map_figure(amap, scale=scale, title=title)
+    out = save(fig, path, kind)
+    size = fig.canvas.get_width_height()
+    return MapPicture(path=out, size=(int(size[0]), int(size[1])), cells=tuple(box))  # type: ignore[arg-type]
 
-    font = _font(_FONT_PX)
-    title_font = _font(_FONT_PX + 3)
-    x_ticks, t_ticks = _axis_ticks(x0, theta0, design.width, scale)
-    heading = f"{title if title is not None else _default_title(design)}   M = {amap.M} / {n * m}"
-    legend = _legend(counts, rect)
-    lay = _layout(font, title_font, heading, x_ticks, len(legend), (n, m), scale)
 
-    image = Image.new("RGB", (lay.width, lay.height), _PAPER)
-    image.paste(Image.fromarray(map_to_rgb(amap, scale=scale), mode="RGB"), (lay.left, lay.top))
-    draw = ImageDraw.Draw(image)
-    draw.rectangle((lay.left - 1, lay.top - 1, lay.right, lay.bottom), outline=_INK)
-    draw.text((lay.left, _PAD), heading, font=title_font, fill=_INK)
-    if rect is not None:
-        _draw_guaranteed(draw, lay, rect)
-    _draw_ticks(draw, font, lay, x_ticks, t_ticks)
-    _draw_axis_names(image, draw, font, lay)
-    _draw_legend(draw, font, lay, legend)
-
-    out = Path(path)
-    image.save(out, format="PNG")
-    return MapPicture(
-        path=out, size=(lay.width, lay.height), cells=(lay.left, lay.top, lay.right, lay.bottom)
-    )
+def save_map_png(
+    amap: AcceptanceMapLike,
+    path: str | Path,
+    *,
+    scale: int | None = None,
+    title: str | None = None,
+) -> MapPicture:
+    """:func:`save_map_picture` as PNG, whatever the suffix of ``path``."""
+    return save_map_picture(amap, path, scale=scale, title=title, fmt="png")

@@ -39,3 +39,9 @@ def test_the_best_cell_is_outlined(tmp_path: Path) -> None:
 def test_values_of_another_shape_are_refused(tmp_path: Path) -> None:
     with pytest.raises(xf.XfaceValueError, match="values must be"):
         save_heatmap_png([[1, 2]], [0.5, 1.0], [0.0, 1.0], tmp_path / "h.png")
+
+
+def test_the_same_values_give_the_same_file(tmp_path: Path) -> None:
+    first = save_heatmap_png([[1, 2]], [0.5], [0.0, 1.0], tmp_path / "a.png", best=(0, 1))
+    second = save_heatmap_png([[1, 2]], [0.5], [0.0, 1.0], tmp_path / "b.png", best=(0, 1))
+    assert first.read_bytes() == second.read_bytes()
