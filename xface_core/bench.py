@@ -280,7 +280,7 @@ def run_bench(args: argparse.Namespace) -> int:
         rtols.append(DEFAULT_SETTINGS.rtol)
     rows = _work_precision(designs, sorted(rtols, reverse=True), repeats)
     _write_table(rows, out)
-    from .viz.benchplot import plot_work_precision  # pillow, from the viz extra
+    from .viz.benchplot import plot_work_precision  # matplotlib, from the viz extra
 
     plot_work_precision(rows, out)
     lines = _targets(quick, repeats)
