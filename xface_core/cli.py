@@ -254,6 +254,7 @@ def _cmd_predict(args: argparse.Namespace) -> int:
         return 2
     if not args.no_margins:
         pred = predict(design, **pose, margins=True)
+    uncertainty = _pose_uncertainty(args, design, physics)
     if args.rrd:
         from .viz.recording import log_prediction, new_recording
 
@@ -262,7 +263,10 @@ def _cmd_predict(args: argparse.Namespace) -> int:
         rec.flush()
         rec.disconnect()
     if args.json:
-        print(json.dumps(_prediction_json(pred), default=_json_default))
+        out = _prediction_json(pred)
+        if uncertainty is not None:
+            out["uncertainty"] = uncertainty
+        print(json.dumps(out, default=_json_default))
         return 0
     unit = "D" if design.width == 1.0 else "length units"
     print(_design_label(design))
@@ -278,6 +282,22 @@ def _cmd_predict(args: argparse.Namespace) -> int:
             f"margins   lateral -{m.lateral_minus:.4g} / +{m.lateral_plus:.4g} {unit}   "
             f"angle -{m.angle_minus:.4g} / +{m.angle_plus:.4g} rad"
         )
+    if uncertainty is not None:
+        u = uncertainty
+        print(
+            f"P(seat)   {u['seat_probability']:.4f} for sigma_x {u['sigma_x']:g} {unit}, "
+            f"sigma_theta {u['sigma_theta']:g} rad"
+        )
+        if u["suggestion"] is None:
+            print(f"suggest   nothing: P(seat) already >= {u['level']:g}")
+        elif u["suggestion"]["reached"]:
+            g = u["suggestion"]
+            print(
+                f"suggest   dx {g['dx']:+.4g} {unit}, dtheta {g['dtheta']:+.4g} rad "
+                f"({g['distance']:.3g} sigma) -> P(seat) {g['seat_probability']:.4f}"
+            )
+        else:
+            print(f"suggest   no correction reaches P(seat) >= {u['level']:g}")
     c = pred.counters
     path = pred.path
     # In the order the path goes through them (a phase met twice is named once).
@@ -287,6 +307,44 @@ def _cmd_predict(args: argparse.Namespace) -> int:
         f"{c.events} events, {c.contact_changes} contact changes; phases: {phases}"
     )
     return 0
+
+
+def _pose_uncertainty(
+    args: argparse.Namespace, design: FaceDesign, physics: Physics
+) -> dict[str, Any] | None:
+    """With ``--sigma-x``/``--sigma-theta``: the seat probability under that pose noise and
+    the correction that brings it to ``--level`` (None without them)."""
+    if args.sigma_x is None and args.sigma_theta is None:
+        return None
+    from .approach import suggest_approach
+    from .probability import seat_probability
+
+    sx = 0.0 if args.sigma_x is None else args.sigma_x
+    st = 0.0 if args.sigma_theta is None else args.sigma_theta
+    if not (math.isfinite(sx) and math.isfinite(st) and sx >= 0.0 and st >= 0.0):
+        raise XfaceValueError("--sigma-x and --sigma-theta must be finite and >= 0")
+    if not 0.0 < args.level < 1.0:
+        raise XfaceValueError(f"--level must be in (0, 1), got {args.level}")
+    cov = [[sx * sx, 0.0], [0.0, st * st]]
+    p = float(seat_probability(design, args.x0, args.theta0, cov, physics=physics))
+    out: dict[str, Any] = {
+        "sigma_x": sx,
+        "sigma_theta": st,
+        "seat_probability": p,
+        "level": args.level,
+        "suggestion": None,
+    }
+    if p < args.level:
+        g = suggest_approach(design, args.x0, args.theta0, cov, level=args.level, physics=physics)
+        out["suggestion"] = {
+            "dx": g.dx,
+            "dtheta": g.dtheta,
+            "distance": g.distance,
+            "metric": g.metric,
+            "reached": g.reached,
+            "seat_probability": g.seat_probability,
+        }
+    return out
 
 
 def _phase_name(code: int) -> str:
@@ -681,6 +739,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--theta0", type=float, required=True, help="initial angle (rad)")
     p.add_argument("--y-start", type=float, default=None, help="start height (length)")
     p.add_argument("--no-margins", action="store_true", help="skip the margin search")
+    p.add_argument(
+        "--sigma-x", type=float, default=None, help="pose noise: std of x0 (length); prints P(seat)"
+    )
+    p.add_argument(
+        "--sigma-theta", type=float, default=None, help="pose noise: std of theta0 (rad)"
+    )
+    p.add_argument(
+        "--level", type=float, default=0.9, help="P(seat) a suggested correction reaches"
+    )
     p.add_argument("--rrd", default=None, help="write a rerun recording to this file")
     p.set_defaults(func=_cmd_predict)
 

@@ -122,3 +122,23 @@ def test_bad_physics_is_a_clear_error(
 def test_table_bound_takes_only_the_papers_physics(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["table", "--face", "V", "--method", "bound", "--friction", "0.2"]) == 2
     assert "--method sim" in capsys.readouterr().err
+
+
+def test_pose_noise_gives_the_seat_probability_and_a_correction(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    import xface_core as xf
+
+    argv = ["predict", "--rp", "2", "--x0", "0.3", "--theta0", "0.2", "--no-margins"]
+    out = _json(capsys, [*argv, "--sigma-x", "0.05", "--sigma-theta", "0.1", "--json"])
+    u = out["uncertainty"]
+    cov = [[0.05**2, 0.0], [0.0, 0.1**2]]
+    assert u["seat_probability"] == xf.seat_probability(xf.x_face(0.25, 2.0), 0.3, 0.2, cov)
+    assert u["seat_probability"] < 0.9  # so a correction is suggested
+    assert u["suggestion"]["reached"]
+    assert u["suggestion"]["seat_probability"] >= 0.9
+
+
+def test_negative_pose_noise_is_a_clear_error(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["predict", "--x0", "0", "--theta0", "0", "--sigma-x", "-1"]) == 2
+    assert "xface: error: --sigma-x and --sigma-theta must be finite" in capsys.readouterr().err
