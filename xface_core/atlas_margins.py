@@ -34,7 +34,7 @@ from .margins import (
 )
 from .outcome import Outcome
 from .result import Margins
-from .runner import check_pose, predict_batch
+from .runner import check_pose, clear_start_height, predict_batch
 
 __all__ = ["margins_from_atlas"]
 
@@ -210,8 +210,10 @@ def margins_from_atlas(
     outcome : Outcome
         The query's own exact outcome (from :func:`~xface_core.predict`).
     y_start : float, optional
-        The query's start height (length). The atlas was built at the default start, so an
-        explicit start is searched exactly (:func:`outcome_margins` at that start).
+        The query's start height (length). The atlas was built at the default start; a start
+        clear of the base at every angle (:func:`~xface_core.runner.clear_start_height`)
+        has the same neighbours, and a lower one is searched exactly at its own height
+        (:func:`outcome_margins` at that start).
     resolution : (float, float)
         Bisection resolution, lateral (D) and angular (rad); default the exact search's
         (1e-4 D, 1e-5 rad). Each factor 2 coarser saves one sequential simulation per
@@ -234,7 +236,12 @@ def margins_from_atlas(
     if not (0.0 < lateral_res < math.inf and 0.0 < angle_res < math.inf):
         raise XfaceValueError(f"resolution must be two finite values > 0, got {resolution!r}")
     x_d = x0 / design.width
-    if y_start is not None or not bool(atlas.covers(x_d, theta0)):
+    # The atlas ran every pose from just clear of the base for its angle. A start at least
+    # clear of the base at every angle (runner.clear_start_height) only translates further to
+    # the same first contact, so its neighbours' outcomes are the atlas's; a lower start is
+    # searched exactly at its own height.
+    low_start = y_start is not None and y_start / design.width < clear_start_height(design)
+    if low_start or not bool(atlas.covers(x_d, theta0)):
         return outcome_margins(design, x0, theta0, outcome, physics=physics, y_start=y_start)
     q = int(outcome)
     limit_x = 2.0 * design.mated_distance

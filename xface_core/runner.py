@@ -76,6 +76,15 @@ def start_heights(design: FaceDesign, theta0: npt.ArrayLike) -> FloatArray:
     )
 
 
+def clear_start_height(design: FaceDesign) -> float:
+    """The moving-pivot height (units of D) above which the parts are clear of each other at
+    every angle and offset: from there the approach is a pure translation to the first
+    contact, so a run's outcome does not depend on how much higher it starts."""
+    table = pair_table(design)
+    radius = float(np.hypot(table.moving_vertices[:, 0], table.moving_vertices[:, 1]).max())
+    return float(table.base_top + radius + START_CLEARANCE)
+
+
 def start_height(design: FaceDesign, theta0: float) -> float:
     """:func:`start_heights` for one angle (compiled: no numpy overhead per call)."""
     table = pair_table(design)

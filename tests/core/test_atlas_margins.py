@@ -10,8 +10,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import xface_core as xf
+from xface_core import atlas_margins
 from xface_core.atlas import build_atlas
 from xface_core.margins import ANGLE_RESOLUTION, LATERAL_RESOLUTION
+from xface_core.runner import clear_start_height
 
 #: Coarser than the default atlas, over its full default range (the angle search from
 #: |theta0| <= pi/2 reaches 3 pi/2); the full-size check is scripts/check_atlas.py.
@@ -108,3 +110,23 @@ def test_flip_between_last_grid_line_and_search_end_is_found() -> None:
     outcome = xf.predict(design, x0, theta0, path=False).outcome
     got = xf.margins_from_atlas(atlas, x0, theta0, outcome)
     assert got.angle_plus == pytest.approx(3.1343, abs=1e-4)
+
+
+def test_a_start_clear_of_the_base_at_every_angle_is_read_from_the_atlas(
+    v_atlas: xf.AcceptanceAtlas, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # A robot's stream starts well above the base: the approach then only translates
+    # further to the same first contact, so the atlas answers (no exact search runs).
+    design = v_atlas.design
+    y_start = (clear_start_height(design) + 0.5) * design.width
+    exact = xf.outcome_margins(
+        design, 0.1, 0.1, xf.predict(design, 0.1, 0.1).outcome, y_start=y_start
+    )
+
+    def no_exact_search(*args: object, **kwargs: object) -> None:
+        raise AssertionError("searched exactly")
+
+    monkeypatch.setattr(atlas_margins, "outcome_margins", no_exact_search)
+    outcome = xf.predict(design, 0.1, 0.1, y_start=y_start, path=False).outcome
+    got = xf.margins_from_atlas(v_atlas, 0.1, 0.1, outcome, y_start=y_start)
+    assert _agree(got, exact, design.width)
