@@ -23,6 +23,7 @@ import time
 from dataclasses import dataclass, field, replace
 from typing import ClassVar
 
+from xface_core.atlas import AcceptanceAtlas
 from xface_core.errors import XfaceError
 from xface_core.frames import (
     AbsurdDistanceError,
@@ -317,10 +318,16 @@ def answer(verdict: Verdict) -> str:
 
 
 def simulate(
-    config: NodeConfig, start: DockStart, *, path: bool, margins: bool
+    config: NodeConfig,
+    start: DockStart,
+    *,
+    path: bool,
+    margins: bool,
+    atlas: AcceptanceAtlas | None = None,
 ) -> tuple[Prediction, float]:
-    """Predict one start with the config's design and physics; the prediction and its wall
-    time (s). Raises what :func:`xface_core.predict.predict` raises."""
+    """Predict one start with the config's design and physics (margins from ``atlas`` when
+    one is given: the same margins, searched with fewer simulations); the prediction and its
+    wall time (s). Raises what :func:`xface_core.predict.predict` raises."""
     t0 = time.perf_counter()
     prediction = predict(
         config.design,
@@ -330,6 +337,7 @@ def simulate(
         physics=config.physics,
         path=path,
         margins=margins,
+        atlas=atlas if margins else None,
     )
     return prediction, time.perf_counter() - t0
 
@@ -342,6 +350,7 @@ def evaluate(
     required_margin_m: float,
     path: bool,
     margins: bool,
+    atlas: AcceptanceAtlas | None = None,
 ) -> Verdict:
     """Check, simulate and decide one pose; never raises for a bad pose or a failed simulation.
 
@@ -353,7 +362,7 @@ def evaluate(
     except InputRejected as exc:
         return Rejected(pose.stamp_ns, exc.code, exc.detail)
     try:
-        prediction, compute_s = simulate(config, start, path=path, margins=margins)
+        prediction, compute_s = simulate(config, start, path=path, margins=margins, atlas=atlas)
     except XfaceError as exc:
         return Rejected(pose.stamp_ns, "invalid_input", str(exc))
     except Exception as exc:  # a bug in the simulator must not take the node down
@@ -365,7 +374,12 @@ def evaluate(
 
 
 def evaluate_streamed(
-    pose: PoseInput, config: NodeConfig, *, receive_ns: int, path: bool
+    pose: PoseInput,
+    config: NodeConfig,
+    *,
+    receive_ns: int,
+    path: bool,
+    atlas: AcceptanceAtlas | None = None,
 ) -> Verdict:
     """A streamed pose: the stamp is judged at arrival (``receive_ns``: waiting for the worker
     is the node's delay, not the input's), margins as configured, ``min_margin`` required."""
@@ -376,6 +390,7 @@ def evaluate_streamed(
         required_margin_m=config.min_margin,
         path=path,
         margins=config.need_margins,
+        atlas=atlas,
     )
 
 
@@ -386,6 +401,7 @@ def evaluate_query(
     *,
     tolerance_m: float,
     now_ns: int,
+    atlas: AcceptanceAtlas | None = None,
 ) -> Verdict:
     """A planner query (GetPlan): which start to predict, then the verdict, always with a path.
 
@@ -414,6 +430,7 @@ def evaluate_query(
         required_margin_m=required,
         path=True,
         margins=config.need_margins or required > 0.0,
+        atlas=atlas,
     )
 
 

@@ -88,11 +88,19 @@ def predictor_level(snapshot: StatsSnapshot) -> tuple[bytes, str]:
 
 
 def predictor_status(
-    snapshot: StatsSnapshot, config: NodeConfig, *, node_name: str, recording_path: str
+    snapshot: StatsSnapshot,
+    config: NodeConfig,
+    *,
+    node_name: str,
+    recording_path: str,
+    atlas: str = "off",
 ) -> DiagnosticStatus:
-    """The node's ``<node_name>: predictor`` status (``hardware_id`` = ``base_frame``)."""
+    """The node's ``<node_name>: predictor`` status (``hardware_id`` = ``base_frame``);
+    ``atlas`` is the acceptance atlas's state (off, building, ready, failed: until it is ready
+    margins are searched exactly)."""
     level, message = predictor_level(snapshot)
     values = predictor_values(snapshot, config, recording_path=recording_path)
+    values["atlas"] = atlas
     return DiagnosticStatus(
         level=level,
         name=f"{node_name}: predictor",

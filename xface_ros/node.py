@@ -54,6 +54,7 @@ from std_msgs.msg import Bool, Header
 from visualization_msgs.msg import MarkerArray
 
 from xface_ros import worker as worker_module
+from xface_ros.atlas_keeper import AtlasKeeper
 from xface_ros.config import CUSTOM_FACE, params_file_applied, params_file_paths
 from xface_ros.conversions import (
     markers_msg,
@@ -170,6 +171,7 @@ class _Predictor(Node):
             recorder=self._recorder,
             shutting_down=lambda: not self.context.ok(),
             warm_up=warm_up,
+            atlas=AtlasKeeper(self.get_logger()),
         )
 
     def _make_inputs(self) -> None:
@@ -362,12 +364,14 @@ class _Predictor(Node):
     def _query(self, start: PoseInput, config: NodeConfig, tolerance_m: float) -> Verdict:
         """A counted planner query: ``start`` (empty frame: the latest pose) against ``config``."""
         self._running_worker.stats.count_service_call()
+        worker = self._running_worker
         return evaluate_query(
             start,
-            self._running_worker.latest_pose,
+            worker.latest_pose,
             config,
             tolerance_m=tolerance_m,
             now_ns=self._now_ns(),
+            atlas=worker.current_atlas(config),
         )
 
     def _on_status_request(
@@ -397,6 +401,7 @@ class _Predictor(Node):
             self.config,
             node_name=self.get_fully_qualified_name(),
             recording_path=self._recorder.path if self._recorder is not None else "",
+            atlas=self._running_worker.atlas_state,
         )
         stamp = self.get_clock().now().to_msg()
         self._diagnostics_pub.publish(diagnostic_array([status], stamp=stamp))

@@ -18,8 +18,10 @@ import time
 from collections.abc import Callable
 from typing import Any, Protocol
 
+from xface_core.atlas import AcceptanceAtlas
 from xface_core.predict import predict
 from xface_core.result import Prediction
+from xface_ros.atlas_keeper import AtlasKeeper
 from xface_ros.config import NodeConfig
 from xface_ros.decision import (
     PoseInput,
@@ -85,6 +87,9 @@ class PredictionWorker:
         True once the node is going away: a failed publish then ends the worker quietly.
     warm_up : callable, optional
         Loads the simulator; default :func:`warm_up_simulator`.
+    atlas : AtlasKeeper, optional
+        The acceptance atlas of the current design (built in the background after the
+        warm-up); its margins are used once it is ready. None: margins always exact.
     """
 
     def __init__(
@@ -98,8 +103,10 @@ class PredictionWorker:
         recorder: Recorder | None = None,
         shutting_down: Callable[[], bool] = lambda: False,
         warm_up: Callable[[NodeConfig], None] | None = None,
+        atlas: AtlasKeeper | None = None,
     ) -> None:
         self._config = config
+        self.atlas = atlas
         self._now_ns = now_ns
         self._wants_path = wants_path
         self._publish = publish
@@ -133,6 +140,18 @@ class PredictionWorker:
     def warming_up(self) -> bool:
         """True until the warm-up simulation has finished (or failed)."""
         return self.stats.warming_up
+
+    @property
+    def atlas_state(self) -> str:
+        """The atlas's state for ``/diagnostics``: off, building, ready or failed."""
+        return "off" if self.atlas is None else self.atlas.state
+
+    def current_atlas(self, config: NodeConfig) -> AcceptanceAtlas | None:
+        """The ready atlas of ``config`` when margins are searched, else None (a design or
+        physics change starts its build; until then margins are exact)."""
+        if self.atlas is None or not config.need_margins or self.warming_up:
+            return None
+        return self.atlas.get(config)
 
     def take_stats(self, now_ns: int) -> StatsSnapshot:
         """The diagnostics snapshot at ``now_ns``; starts a new window."""
@@ -174,6 +193,8 @@ class PredictionWorker:
                 self._logger.info(f"simulator loaded in {elapsed_s:.1f} s")
         finally:
             self.stats.set_warming_up(False)
+        if self.atlas is not None and self._config().need_margins:
+            self.atlas.get(self._config())  # start building it (on a thread of its own)
 
     def process(self, item: Received[PoseInput]) -> Verdict:
         """Decide one streamed pose, publish, count and record it; the verdict."""
@@ -183,6 +204,7 @@ class PredictionWorker:
             config,
             receive_ns=item.receive_ns,
             path=self._recorder is not None or self._wants_path(),
+            atlas=self.current_atlas(config),
         )
         self._deliver(verdict, config)
         return verdict

@@ -36,6 +36,7 @@ DOCUMENTED_KEYS = [
     "service_calls_total", "recording_errors_total", "last_outcome", "last_accepted",
     "last_input_error", "last_latency_ms", "latency_ms_median", "latency_ms_max",
     "compute_ms_median", "face", "width_m", "h_over_d", "r_p", "damping_ratio", "recording",
+    "atlas",
 ]  # fmt: skip
 
 

@@ -25,6 +25,7 @@ from xface_core.frames import (
     wrap_angle,
 )
 from xface_core.geometry import make_face
+from xface_core.margins import ANGLE_RESOLUTION, LATERAL_RESOLUTION
 from xface_core.outcome import Outcome
 from xface_core.predict import predict
 from xface_core.result import Prediction
@@ -99,11 +100,17 @@ def test_streamed_prediction_equals_the_core(
     assert int(v["steps"]) == expected.counters.steps
     assert int(v["events"]) == expected.counters.events
     assert expected.margins is not None
-    assert float(v["margin_lateral_minus_m"]) == pytest.approx(expected.margins.lateral_minus)
-    assert float(v["margin_lateral_plus_m"]) == pytest.approx(expected.margins.lateral_plus)
-    assert float(v["margin_angle_minus_rad"]) == pytest.approx(expected.margins.angle_minus)
-    assert float(v["margin_angle_plus_rad"]) == pytest.approx(expected.margins.angle_plus)
-    assert float(v["margin_m"]) == pytest.approx(combined_margin(expected.margins, WIDTH))
+    # Margins are defined to the search's resolution (1e-4 D, 1e-5 rad): once the node's
+    # acceptance atlas is ready it finds the same flips from other brackets.
+    lateral, angle = LATERAL_RESOLUTION * WIDTH, ANGLE_RESOLUTION
+    m = expected.margins
+    assert float(v["margin_lateral_minus_m"]) == pytest.approx(m.lateral_minus, abs=lateral)
+    assert float(v["margin_lateral_plus_m"]) == pytest.approx(m.lateral_plus, abs=lateral)
+    assert float(v["margin_angle_minus_rad"]) == pytest.approx(m.angle_minus, abs=angle)
+    assert float(v["margin_angle_plus_rad"]) == pytest.approx(m.angle_plus, abs=angle)
+    assert float(v["margin_m"]) == pytest.approx(
+        combined_margin(m, WIDTH), abs=max(lateral, angle * WIDTH)
+    )
 
     path = c.wait_path(sent_ns)
     assert path is not None

@@ -1,0 +1,106 @@
+"""The node's acceptance atlas (xface_ros.atlas_keeper), without DDS: built in the background,
+used once ready, dropped when the design changes, never fatal."""
+
+from __future__ import annotations
+
+import threading
+from dataclasses import replace
+from typing import Any
+
+import pytest
+
+import xface_core as xf
+from xface_ros.atlas_keeper import AtlasKeeper
+from xface_ros.config import SPECS, NodeConfig, config_from_values
+from xface_ros.decision import PoseInput, evaluate_streamed
+
+NOW_NS = 1_700_000_000_000_000_000
+
+
+class Log:
+    def __init__(self) -> None:
+        self.lines: list[str] = []
+
+    def info(self, message: str, **_: Any) -> None:
+        self.lines.append(message)
+
+    warning = error = info
+
+
+@pytest.fixture(scope="module")
+def config() -> NodeConfig:
+    return config_from_values({spec.name: spec.default for spec in SPECS})
+
+
+def _coarse(design: xf.FaceDesign, physics: xf.Physics) -> xf.AcceptanceAtlas:
+    return xf.build_atlas(design, physics=physics, lateral_step=1 / 16, angle_step=0.05)
+
+
+def test_the_atlas_is_built_in_the_background_and_then_used(config: NodeConfig) -> None:
+    keeper = AtlasKeeper(Log(), build=_coarse)
+    assert keeper.state == "off"
+    assert keeper.get(config) is None  # starts the build, answers at once
+    keeper.join()
+    assert keeper.state == "ready"
+    atlas = keeper.get(config)
+    assert atlas is not None
+    assert atlas.design.cache_key == config.design.cache_key
+
+
+def test_a_design_change_starts_a_new_build_and_drops_the_old_atlas(config: NodeConfig) -> None:
+    keeper = AtlasKeeper(Log(), build=_coarse)
+    keeper.get(config)
+    keeper.join()
+    other = replace(config, design=xf.make_face("V", 0.5, 1.0, width=config.width_m))
+    assert keeper.get(other) is None
+    keeper.join()
+    atlas = keeper.get(other)
+    assert atlas is not None
+    assert atlas.design.kind == "V"
+
+
+def test_a_build_finished_for_an_older_design_is_not_used(config: NodeConfig) -> None:
+    release = threading.Event()
+
+    def slow(design: xf.FaceDesign, physics: xf.Physics) -> xf.AcceptanceAtlas:
+        release.wait(30.0)
+        return _coarse(design, physics)
+
+    keeper = AtlasKeeper(Log(), build=slow)
+    keeper.get(config)
+    other = replace(config, design=xf.make_face("V", 0.5, 1.0, width=config.width_m))
+    keeper.get(other)  # the newer request wins
+    release.set()
+    keeper.join()
+    atlas = keeper.get(other)
+    assert atlas is not None
+    assert atlas.design.kind == "V"
+
+
+def test_a_failed_build_is_logged_and_margins_stay_exact(config: NodeConfig) -> None:
+    def broken(design: xf.FaceDesign, physics: xf.Physics) -> xf.AcceptanceAtlas:
+        raise MemoryError("no room")
+
+    log = Log()
+    keeper = AtlasKeeper(log, build=broken)
+    keeper.get(config)
+    keeper.join()
+    assert keeper.state == "failed"
+    assert keeper.get(config) is None
+    assert any("acceptance atlas failed" in line for line in log.lines)
+
+
+def test_streamed_margins_from_the_atlas_equal_the_exact_ones(config: NodeConfig) -> None:
+    keeper = AtlasKeeper(Log(), build=_coarse)
+    keeper.get(config)
+    keeper.join()
+    # 3 D above the base: clear of it at every angle, as a robot's stream starts.
+    pose = PoseInput("xface_base", NOW_NS, (0.3 * config.width_m, 3.0 * config.width_m, 0.0),
+                     (0.0, 0.0, 0.9950041652780258, 0.09983341664682815))  # fmt: skip
+    fast = evaluate_streamed(pose, config, receive_ns=NOW_NS, path=False, atlas=keeper.get(config))
+    exact = evaluate_streamed(pose, config, receive_ns=NOW_NS, path=False)
+    fm, em = fast.prediction.margins, exact.prediction.margins  # type: ignore[union-attr]
+    assert fm is not None
+    assert em is not None
+    assert fm.angle_minus == pytest.approx(em.angle_minus, abs=1e-5)
+    assert fm.lateral_plus == pytest.approx(em.lateral_plus, abs=1e-4 * config.width_m)

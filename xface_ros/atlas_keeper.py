@@ -1,0 +1,90 @@
+"""The node's acceptance atlas: built in the background for the current design and physics.
+
+Margins from an atlas cost a few exact simulations instead of hundreds
+(:mod:`xface_core.atlas`, docs/atlas.md). Building one takes seconds, so the node builds it on
+a thread of its own at start and again after a design or physics parameter changes; until it
+is ready (or when a build failed) predictions search their margins exactly, as without it,
+and ``/diagnostics`` says which (``atlas``: ``building``, ``ready``, ``failed``, ``off``).
+Imports no rclpy.
+"""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Callable, Hashable
+from typing import TYPE_CHECKING
+
+from xface_core.atlas import AcceptanceAtlas, build_atlas
+from xface_core.geometry import FaceDesign
+from xface_core.physics import Physics
+from xface_ros.config import NodeConfig
+
+if TYPE_CHECKING:
+    from xface_ros.worker import Logger
+
+__all__ = ["AtlasKeeper"]
+
+Builder = Callable[[FaceDesign, Physics], AcceptanceAtlas]
+
+
+def _key(config: NodeConfig) -> Hashable:
+    """What an atlas depends on: the geometry, its width and the physics."""
+    return (config.design.cache_key, config.design.width, config.physics)
+
+
+class AtlasKeeper:
+    """The atlas of the newest design and physics asked for, once built.
+
+    :meth:`get` is cheap and never blocks: it returns the ready atlas for ``config``, or None
+    and (for a design not asked for before) starts a build in the background. Only the newest
+    request is kept; a build that finishes for an older design is dropped.
+    """
+
+    def __init__(self, logger: Logger, *, build: Builder | None = None) -> None:
+        self._logger = logger
+        self._build = build or (lambda design, physics: build_atlas(design, physics=physics))
+        self._lock = threading.Lock()
+        self._wanted: Hashable | None = None
+        self._atlas: AcceptanceAtlas | None = None
+        self._state = "off"
+        self._threads: list[threading.Thread] = []
+
+    @property
+    def state(self) -> str:
+        """``off`` (never asked), ``building``, ``ready`` or ``failed``."""
+        with self._lock:
+            return self._state
+
+    def get(self, config: NodeConfig) -> AcceptanceAtlas | None:
+        """The ready atlas of ``config``'s design and physics, else None (starting a build)."""
+        key = _key(config)
+        with self._lock:
+            if key == self._wanted:
+                return self._atlas
+            self._wanted, self._atlas, self._state = key, None, "building"
+        thread = threading.Thread(
+            target=self._run, args=(key, config), name="xface_atlas", daemon=True
+        )
+        self._threads.append(thread)
+        thread.start()
+        return None
+
+    def join(self, timeout_s: float = 60.0) -> None:
+        """Wait for the builds started so far (tests, shutdown)."""
+        for thread in self._threads:
+            thread.join(timeout=timeout_s)
+
+    def _run(self, key: Hashable, config: NodeConfig) -> None:
+        try:
+            atlas = self._build(config.design, config.physics)
+        except Exception as exc:  # margins fall back to the exact search: never fatal
+            with self._lock:
+                if key == self._wanted:
+                    self._state = "failed"
+            self._logger.error(f"acceptance atlas failed, margins searched exactly: {exc!r}")
+            return
+        with self._lock:
+            if key != self._wanted:
+                return  # the design changed while this one was being built
+            self._atlas, self._state = atlas, "ready"
+        self._logger.info("acceptance atlas ready: margins from the atlas")
