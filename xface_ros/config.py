@@ -116,6 +116,14 @@ SPECS: tuple[ParamSpec, ...] = (
         constraints="non-empty, no whitespace",
     ),
     ParamSpec(
+        "min_seat_probability",
+        0.0,
+        "For poses with a covariance (relative_pose_with_covariance): accepted also needs the "
+        "seat probability under it to reach this (0 = off); not accepted, the status carries "
+        "a suggested correction (suggest_dx_m, suggest_dtheta_rad).",
+        float_range=(0.0, 1.0),
+    ),
+    ParamSpec(
         "input_timeout_s",
         0.5,
         "Streamed poses whose stamp is older than this (node clock) are reported as stale, "
@@ -211,6 +219,7 @@ class NodeConfig:
     r_p: float
     base_frame: str
     input_timeout_s: float
+    min_seat_probability: float
     min_margin: float
     compute_margins: bool
     max_tilt_rad: float
@@ -362,6 +371,7 @@ def config_from_values(values: Mapping[str, Any]) -> NodeConfig:
         r_p=float(values["r_p"]),
         base_frame=base_frame,
         input_timeout_s=float(values["input_timeout_s"]),
+        min_seat_probability=float(values["min_seat_probability"]),
         min_margin=float(values["min_margin"]),
         compute_margins=bool(values["compute_margins"]),
         max_tilt_rad=float(values["max_tilt_rad"]),

@@ -11,13 +11,21 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable
+from dataclasses import replace
 
 import numpy as np
 import numpy.typing as npt
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 from diagnostic_msgs.srv import SelfTest
-from geometry_msgs.msg import Point, Pose, PoseStamped, Quaternion, Vector3
+from geometry_msgs.msg import (
+    Point,
+    Pose,
+    PoseStamped,
+    PoseWithCovarianceStamped,
+    Quaternion,
+    Vector3,
+)
 from nav_msgs.msg import Path
 from std_msgs.msg import ColorRGBA, Header
 from visualization_msgs.msg import Marker, MarkerArray
@@ -74,6 +82,17 @@ def pose_input(msg: PoseStamped) -> PoseInput:
         stamp_ns=stamp_to_ns(msg.header.stamp),
         position=(float(p.x), float(p.y), float(p.z)),
         orientation=(float(q.x), float(q.y), float(q.z), float(q.w)),
+    )
+
+
+def pose_with_covariance_input(msg: PoseWithCovarianceStamped) -> PoseInput:
+    """The plain values of a pose with covariance: the pose, and the (x, yaw) block of its
+    6 x 6 row-major covariance (indices 0, 5, 30, 35; x0 = x and theta0 = yaw - pi, so it is
+    the covariance of (x0, theta0))."""
+    c = msg.pose.covariance
+    stamped = PoseStamped(header=msg.header, pose=msg.pose.pose)
+    return replace(
+        pose_input(stamped), covariance=(float(c[0]), float(c[5]), float(c[30]), float(c[35]))
     )
 
 
@@ -140,6 +159,13 @@ def prediction_status(predicted: Predicted, *, name: str, hardware_id: str) -> D
             key_value("margin_lateral_plus_m", m.lateral_plus),
             key_value("margin_angle_minus_rad", m.angle_minus),
             key_value("margin_angle_plus_rad", m.angle_plus),
+        ]
+    if decision.seat_probability is not None:
+        values.append(key_value("seat_probability", decision.seat_probability))
+    if decision.suggestion is not None:
+        values += [
+            key_value("suggest_dx_m", decision.suggestion[0]),
+            key_value("suggest_dtheta_rad", decision.suggestion[1]),
         ]
     values += _final_values(predicted)
     values.append(key_value("compute_time_ms", predicted.compute_s * 1e3))

@@ -23,6 +23,7 @@ import time
 from dataclasses import dataclass, field, replace
 from typing import ClassVar
 
+from xface_core.approach import suggest_approach
 from xface_core.atlas import AcceptanceAtlas
 from xface_core.errors import XfaceError
 from xface_core.frames import (
@@ -40,6 +41,7 @@ from xface_core.frames import (
 )
 from xface_core.outcome import Outcome
 from xface_core.predict import predict
+from xface_core.probability import seat_probability
 from xface_core.result import Margins, Prediction
 from xface_ros.config import NodeConfig, normalise_frame_id
 
@@ -79,6 +81,8 @@ INPUT_ERRORS: dict[str, str] = {
     "not_facing": "|theta0| > pi/2: the faces do not face each other (yaw 0 is back to back)",
     "no_pose": "no pose has been received yet (service: empty start frame id)",
     "bad_tolerance": "the query's tolerance is negative or not finite",
+    "bad_covariance": "the pose's (x, yaw) covariance is not finite, symmetric and positive "
+    "semi-definite",
     "invalid_input": "the simulator refused the start (e.g. the parts interpenetrate)",
     "internal_error": "the simulator failed unexpectedly (a bug: the message has the details)",
 }
@@ -105,6 +109,9 @@ class PoseInput:
     stamp_ns: int
     position: tuple[float, float, float]
     orientation: tuple[float, float, float, float]
+    covariance: tuple[float, float, float, float] | None = None
+    """The (x, yaw) block of a ``PoseWithCovarianceStamped`` covariance, row-major
+    (m^2, m rad, rad m, rad^2): the covariance of (x0, theta0). None: the pose is exact."""
 
 
 # --- input checks, in the documented order: frame, finiteness, stamp, quaternion, distance,
@@ -211,6 +218,11 @@ class Decision:
     required_m: float
     """The margin (m) asked for."""
     why: str
+    seat_probability: float | None = None
+    """P(seat) under the pose's covariance, None for an exact pose (or no atlas yet)."""
+    suggestion: tuple[float, float] | None = None
+    """(dx m, dtheta rad) that brings P(seat) to ``min_seat_probability``, when not accepted
+    for want of it and a correction was found."""
 
 
 def decide(prediction: Prediction, *, required_margin_m: float) -> Decision:
@@ -241,6 +253,55 @@ def required_margin_m(tolerance_m: float, config: NodeConfig) -> float:
     A negative or non-finite tolerance never gets here: :func:`evaluate_query` rejects it.
     """
     return tolerance_m if tolerance_m > 0.0 else config.min_margin
+
+
+def _check_covariance(cov: tuple[float, float, float, float]) -> None:
+    """Finite, symmetric (to round-off) and positive semi-definite, else ``bad_covariance``."""
+    xx, xt, tx, tt = cov
+    scale = max(abs(xx), abs(tt), 1e-300)
+    if not all(math.isfinite(v) for v in cov):
+        raise InputRejected("bad_covariance", f"covariance {cov!r} is not finite")
+    if abs(xt - tx) > 1e-9 * scale:
+        raise InputRejected("bad_covariance", f"covariance {cov!r} is not symmetric")
+    if xx < 0.0 or tt < 0.0 or xx * tt - xt * tx < -1e-9 * scale * scale:
+        raise InputRejected("bad_covariance", f"covariance {cov!r} is not positive semi-definite")
+
+
+def _with_probability(
+    decision: Decision,
+    start: DockStart,
+    cov: tuple[float, float, float, float],
+    config: NodeConfig,
+    atlas: AcceptanceAtlas | None,
+) -> Decision:
+    """The decision with P(seat) under the pose's covariance (read from the atlas: without a
+    ready atlas it is not computed, since building one takes seconds) and, when
+    ``min_seat_probability`` asks for more, not accepted with a suggested correction."""
+    if atlas is None:
+        if config.min_seat_probability > 0.0 and decision.accepted:
+            why = "seat probability not available yet (the atlas is being built)"
+            return replace(decision, accepted=False, why=why)
+        return decision
+    matrix = ((cov[0], cov[1]), (cov[2], cov[3]))
+    p = float(
+        seat_probability(
+            config.design, start.x0, start.theta0, matrix, physics=config.physics, atlas=atlas
+        )
+    )
+    decision = replace(decision, seat_probability=p)
+    level = config.min_seat_probability
+    if level <= 0.0 or p >= level:
+        return decision
+    suggestion = None
+    if level < 1.0:
+        s = suggest_approach(
+            config.design, start.x0, start.theta0, matrix, level=level,
+            physics=config.physics, atlas=atlas,
+        )  # fmt: skip
+        if s.reached:
+            suggestion = (s.dx, s.dtheta)
+    why = f"seat probability {p:.3g} < min_seat_probability {level:.3g}"
+    return replace(decision, accepted=False, why=why, suggestion=suggestion)
 
 
 # --- verdicts -------------------------------------------------------------------------------
@@ -359,6 +420,8 @@ def evaluate(
     """
     try:
         start = check_pose(pose, config, now_ns=now_ns)
+        if pose.covariance is not None:
+            _check_covariance(pose.covariance)
     except InputRejected as exc:
         return Rejected(pose.stamp_ns, exc.code, exc.detail)
     try:
@@ -370,6 +433,8 @@ def evaluate(
     if prediction.outcome is Outcome.INVALID_INPUT:
         return Rejected(pose.stamp_ns, "invalid_input", prediction.reason)
     decision = decide(prediction, required_margin_m=required_margin_m)
+    if pose.covariance is not None:
+        decision = _with_probability(decision, start, pose.covariance, config, atlas)
     return Predicted(pose.stamp_ns, start, prediction, decision, compute_s)
 
 

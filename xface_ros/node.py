@@ -30,7 +30,7 @@ from typing import Any
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from diagnostic_msgs.srv import SelfTest
-from geometry_msgs.msg import PoseStamped
+from geometry_msgs.msg import PoseStamped, PoseWithCovarianceStamped
 from nav_msgs.msg import Path
 from nav_msgs.srv import GetPlan
 from rcl_interfaces.msg import SetParametersResult
@@ -61,6 +61,7 @@ from xface_ros.conversions import (
     ns_to_stamp,
     path_msg,
     pose_input,
+    pose_with_covariance_input,
     seated_pose_msg,
     self_test_response,
     status_name,
@@ -184,6 +185,15 @@ class _Predictor(Node):
             callback_group=MutuallyExclusiveCallbackGroup(),
             event_callbacks=SubscriptionEventCallbacks(message_lost=self._on_message_lost),
         )
+        # The same stream with its uncertainty: the status then also carries the seat
+        # probability (and, below min_seat_probability, a suggested correction).
+        cov_sub = self.create_subscription(
+            PoseWithCovarianceStamped,
+            "relative_pose_with_covariance",
+            self._on_pose_with_covariance,
+            qos_profile_sensor_data,
+            callback_group=MutuallyExclusiveCallbackGroup(),
+        )
         plan_service = self.create_service(
             GetPlan,
             "predict",
@@ -205,6 +215,7 @@ class _Predictor(Node):
         )
         self._inputs = [
             (pose_sub, self.destroy_subscription),
+            (cov_sub, self.destroy_subscription),
             (plan_service, self.destroy_service),
             (status_service, self.destroy_service),
             (timer, self.destroy_timer),
@@ -294,6 +305,9 @@ class _Predictor(Node):
 
     def _on_pose(self, msg: PoseStamped) -> None:
         self._running_worker.submit(pose_input(msg), receive_ns=self._now_ns())
+
+    def _on_pose_with_covariance(self, msg: PoseWithCovarianceStamped) -> None:
+        self._running_worker.submit(pose_with_covariance_input(msg), receive_ns=self._now_ns())
 
     def _on_message_lost(self, info: QoSMessageLostInfo) -> None:
         self._running_worker.stats.set_dds_lost_reported_total(info.total_count)

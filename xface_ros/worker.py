@@ -147,9 +147,9 @@ class PredictionWorker:
         return "off" if self.atlas is None else self.atlas.state
 
     def current_atlas(self, config: NodeConfig) -> AcceptanceAtlas | None:
-        """The ready atlas of ``config`` when margins are searched, else None (a design or
-        physics change starts its build; until then margins are exact)."""
-        if self.atlas is None or not config.need_margins or self.warming_up:
+        """The ready atlas of ``config``, else None (a design or physics change starts its
+        build; until then margins are exact and seat probabilities not computed)."""
+        if self.atlas is None or self.warming_up:
             return None
         return self.atlas.get(config)
 
@@ -193,7 +193,7 @@ class PredictionWorker:
                 self._logger.info(f"simulator loaded in {elapsed_s:.1f} s")
         finally:
             self.stats.set_warming_up(False)
-        if self.atlas is not None and self._config().need_margins:
+        if self.atlas is not None:
             self.atlas.get(self._config())  # start building it (on a thread of its own)
 
     def process(self, item: Received[PoseInput]) -> Verdict:

@@ -3,6 +3,7 @@ used once ready, dropped when the design changes, never fatal."""
 
 from __future__ import annotations
 
+import math
 import threading
 from dataclasses import replace
 from typing import Any
@@ -104,3 +105,69 @@ def test_streamed_margins_from_the_atlas_equal_the_exact_ones(config: NodeConfig
     assert em is not None
     assert fm.angle_minus == pytest.approx(em.angle_minus, abs=1e-5)
     assert fm.lateral_plus == pytest.approx(em.lateral_plus, abs=1e-4 * config.width_m)
+
+
+# --- poses with a covariance (relative_pose_with_covariance) --------------------------------
+
+COV = (0.003**2, 0.0, 0.0, 0.1**2)  # (x, yaw) block: 3 mm, 0.1 rad
+
+
+def _pose(config: NodeConfig, x_widths: float, theta0: float, cov: Any = COV) -> PoseInput:
+    # theta0 = yaw - pi: the quaternion of yaw = theta0 + pi, 3 D above the base.
+    half = (theta0 + math.pi) / 2.0
+    return PoseInput(
+        "xface_base", NOW_NS, (x_widths * config.width_m, 3.0 * config.width_m, 0.0),
+        (0.0, 0.0, math.sin(half), math.cos(half)), cov,
+    )  # fmt: skip
+
+
+@pytest.fixture(scope="module")
+def atlas(config: NodeConfig) -> xf.AcceptanceAtlas:
+    return _coarse(config.design, config.physics)
+
+
+def test_a_pose_with_covariance_carries_its_seat_probability(
+    config: NodeConfig, atlas: xf.AcceptanceAtlas
+) -> None:
+    verdict = evaluate_streamed(
+        _pose(config, 0.3, 0.2), config, receive_ns=NOW_NS, path=False, atlas=atlas
+    )
+    p = verdict.decision.seat_probability  # type: ignore[union-attr]
+    expected = xf.seat_probability(
+        config.design, verdict.start.x0, verdict.start.theta0,  # type: ignore[union-attr]
+        [[COV[0], COV[1]], [COV[2], COV[3]]], physics=config.physics, atlas=atlas,
+    )  # fmt: skip
+    assert p == expected
+    assert 0.0 < p < 1.0
+
+
+def test_below_the_required_seat_probability_it_is_refused_with_a_correction(
+    config: NodeConfig, atlas: xf.AcceptanceAtlas
+) -> None:
+    # 2 cm and 0.2 rad of uncertainty: P(seat) about 0.77; a correction of about 7 mm and
+    # 0.08 rad brings it to 0.9.
+    strict = replace(config, min_seat_probability=0.9)
+    wide = (0.02**2, 0.0, 0.0, 0.2**2)
+    verdict = evaluate_streamed(
+        _pose(strict, 0.3, 0.2, wide), strict, receive_ns=NOW_NS, path=False, atlas=atlas
+    )
+    decision = verdict.decision  # type: ignore[union-attr]
+    assert verdict.prediction.seated  # type: ignore[union-attr]
+    assert not decision.accepted
+    assert "seat probability" in decision.why
+    assert decision.suggestion is not None
+
+
+def test_without_an_atlas_a_required_seat_probability_is_not_yet_met(config: NodeConfig) -> None:
+    strict = replace(config, min_seat_probability=0.5)
+    verdict = evaluate_streamed(_pose(strict, 0.0, 0.0), strict, receive_ns=NOW_NS, path=False)
+    assert not verdict.accepted
+    assert "not available yet" in verdict.decision.why  # type: ignore[union-attr]
+
+
+@pytest.mark.parametrize(
+    "cov", [(-1.0, 0.0, 0.0, 1.0), (1.0, 0.5, 0.0, 1.0), (1.0, 2.0, 2.0, 1.0), (math.nan,) * 4]
+)
+def test_a_covariance_that_is_not_one_is_rejected(config: NodeConfig, cov: Any) -> None:
+    verdict = evaluate_streamed(_pose(config, 0.0, 0.0, cov), config, receive_ns=NOW_NS, path=False)
+    assert verdict.code == "bad_covariance"  # type: ignore[union-attr]

@@ -3,11 +3,13 @@
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import pytest
+from geometry_msgs.msg import PoseWithCovarianceStamped
 
-from xface_ros.diagnostics import WARMING_UP_MESSAGE
+from xface_core.frames import wrap_angle
 
 pytestmark = pytest.mark.ros
 
@@ -29,14 +31,45 @@ def test_the_atlas_becomes_ready_on_diagnostics(launch: Any) -> None:
     _atlas_state(running, "ready")
 
 
-def test_without_margins_no_atlas_is_built(launch: Any) -> None:
-    running = launch(compute_margins=False)  # returns once the warm-up is over
+def test_a_pose_with_covariance_is_answered_with_its_seat_probability(launch: Any) -> None:
+    running = launch(compute_margins=False)
+    _atlas_state(running, "ready")
     c = running.client
-    array = c.diagnostics.wait_for(
-        lambda a: any(
-            s.name.endswith(": predictor") and s.message != WARMING_UP_MESSAGE for s in a.status
-        ),
-        timeout_s=60.0,
-    )
-    status = next(s for s in array.status if s.name.endswith(": predictor"))
-    assert c.values(status)["atlas"] == "off"
+    pub = c.node.create_publisher(PoseWithCovarianceStamped, "relative_pose_with_covariance", 10)
+    width = 0.05  # config/xface.yaml
+
+    def make() -> PoseWithCovarianceStamped:
+        # x0 = 0.3 D, theta0 = 0.2 rad, 3 D above the base; sigma 2 mm and 0.1 rad.
+        plain = c.pose_msg(0.3 * width, 3.0 * width, wrap_angle(0.2 + math.pi))
+        msg = PoseWithCovarianceStamped(header=plain.header)
+        msg.pose.pose = plain.pose
+        cov = [0.0] * 36
+        cov[0], cov[35] = 0.002**2, 0.1**2
+        msg.pose.covariance = cov
+        return msg
+
+    sent: list[int] = []
+
+    def publish_once() -> Any:
+        msg = make()
+        sent.append(c.stamp_ns(msg.header.stamp))
+        pub.publish(msg)
+        return msg
+
+    for _ in range(50):
+        publish_once()
+        try:
+            status = c.status.wait_for(
+                lambda s: (
+                    "seat_probability" in c.values(s)
+                    and c.values(s).get("input_stamp_ns") == str(sent[-1])
+                ),
+                2.0,
+            )
+            break
+        except TimeoutError:
+            continue
+    else:
+        raise AssertionError("no status with a seat probability")
+    p = float(c.values(status)["seat_probability"])
+    assert 0.0 <= p <= 1.0
