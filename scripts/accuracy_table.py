@@ -90,6 +90,7 @@ DESIGNS: tuple[Design, ...] = (
     Design("S", 1.7411, 4.0),
     Design("S", 5.278, 8.0),
     Design("V", 0.32988, 2.0, friction=0.2),
+    Design("X", 1.0, 3.0, friction=0.3),
     Design("S", 0.0625, 1.0, friction=0.2),
     Design("trapezoid", 0.0, 0.0, note="custom"),
     Design("trapezoid", 0.0, 0.0, friction=0.15, note="custom"),
