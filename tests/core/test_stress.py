@@ -304,3 +304,18 @@ def test_two_frictional_contacts_at_a_fold_end_the_run_instead_of_cycling() -> N
     )
     assert p.outcome is Outcome.BAD_MATE
     assert p.counters.events < 10
+
+
+def test_a_contact_on_the_edge_of_its_friction_cone_sticks_instead_of_cycling() -> None:
+    # At a very light base (damping ratio 1e-4) a sliding contact's slip rate came back to
+    # zero every 3e-4 D and sliding was chosen again, until the event budget (UNRESOLVED).
+    p = xf.predict(
+        xf.v_face(0.6443061341019397, 0.0),
+        0.45304569849318566,
+        -0.017333553122600653,
+        friction=0.10773624929262986,
+        damping_ratio=1e-4,
+        margins=False,
+    )
+    assert p.outcome in DECIDED
+    assert p.counters.events < 50

@@ -20,8 +20,10 @@ from .records import (
     FREE,
     SLIDE_NEGATIVE,
     SLIDE_POSITIVE,
+    SLIP_FLOOR,
     SLIP_PROBE,
     STICK,
+    STICK_SLACK,
     TINY,
     U_CORNER,
     U_TOL,
@@ -240,7 +242,7 @@ def slip_margin(
     direction, a stuck one keeps its tangential force inside the cone |tau| <= mu lambda."""
     vb, vm, lam, x = velocity(table, act, nact, pb, pm, x0, ym, sqb, sqm, mu, slip)
     if slip[k] == STICK:
-        return float(mu * lam - abs(x))
+        return float(mu * lam * (1.0 + STICK_SLACK) - abs(x))
     cb, cm, gam = tangent(table, act[k], pb, pm, x0, ym)
     return float(slip[k] * (cb * vb + cm * vm + gam))
 
@@ -477,11 +479,12 @@ def friction_modes(
         if not (math.isfinite(wb) and math.isfinite(wm) and lam2 >= 0.0):
             continue
         if mode == STICK:
-            if abs(x2) <= mu * lam2:
+            if abs(x2) <= mu * lam2 * (1.0 + STICK_SLACK):
                 return True
         else:
             tb, tm, tg = tangent(table, act[0], qb, qm, x0, yy)
-            if mode * (tb * wb + tm * wm + tg) >= 0.0:
+            floor = SLIP_FLOOR * (abs(tb * wb) + abs(tm * wm) + abs(tg))
+            if mode * (tb * wb + tm * wm + tg) > floor:
                 return True
     slip[0] = FREE
     return False

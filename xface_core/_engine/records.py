@@ -105,6 +105,13 @@ SLIP_PROBE = 1e-7
 #: on a flush edge friction can leave one end's force at about -1e-4 of the other's, and
 #: released it is closed again at once (interval._both_push, the release event).
 PUSH_SLACK = 1e-3
+#: A stuck contact holds while its friction force is within 1 + STICK_SLACK of the cone
+#: mu lambda, and a sliding one is chosen only while it slips faster than SLIP_FLOOR times the
+#: size of its slip rate's terms: on the boundary of the cone the slip rate is zero to
+#: round-off, and sliding was chosen again every 3e-4 D (damping ratio 1e-4, mu 0.1: the
+#: event budget) where the contact, its force on the cone, sticks.
+STICK_SLACK = 1e-6
+SLIP_FLOOR = 1e-9
 #: Touching tolerances a pair may lie behind its edge's line and still count as touching.
 #: Every event that stops a touching pair's crossing leaves it up to one touching tolerance
 #: deeper; with a window of 4 a pair that went through four such events dropped out of the
