@@ -18,9 +18,9 @@ import json
 import math
 import os
 import sys
-import time
 from collections.abc import Sequence
 from dataclasses import replace
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -35,7 +35,8 @@ from .outcome import Outcome
 from .paper import PAPER_MEAN_RATIO_XS, PAPER_MEAN_RATIO_XV, mean_ratio, paper_table
 from .physics import DEFAULT_PHYSICS, Physics
 from .predict import predict
-from .sweep import AcceptanceMap, MTable, acceptance_map, m_table
+from .progressbar import ProgressBar, terminal_progress
+from .sweep import AcceptanceMap, MTable, Progress, acceptance_map, m_table
 
 __all__ = ["main"]
 
@@ -79,39 +80,6 @@ def _check_viz(args: argparse.Namespace) -> None:
             if (exc.name or "").partition(".")[0] == __package__:
                 raise  # a bug of ours, not a missing extra
             raise _VizMissing(option) from None
-
-
-class _TerminalProgress:
-    """A one-line progress bar on stderr: ``label [####....] done/total unit, time left``."""
-
-    def __init__(self, label: str, unit: str) -> None:
-        self.label, self.unit = label, unit
-        self.started = time.monotonic()
-        self.shown = False
-
-    def __call__(self, done: int, total: int) -> None:
-        width = 30
-        filled = width * done // max(total, 1)
-        elapsed = time.monotonic() - self.started
-        eta = f", about {elapsed / done * (total - done):.0f} s left" if done else ""
-        sys.stderr.write(
-            f"\r{self.label} [{'#' * filled}{'.' * (width - filled)}] {done}/{total} "
-            f"{self.unit}, {elapsed:.0f} s{eta} "
-        )
-        sys.stderr.flush()
-        self.shown = True
-
-    def close(self) -> None:
-        if self.shown:
-            sys.stderr.write("\n")
-            sys.stderr.flush()
-
-
-def _progress(args: argparse.Namespace, label: str, unit: str) -> _TerminalProgress | None:
-    """A bar for a long command, unless ``--quiet`` or stderr is not a terminal."""
-    if getattr(args, "quiet", False) or not sys.stderr.isatty():
-        return None
-    return _TerminalProgress(label, unit)
 
 
 #: Maps with at least this many nodes per axis show a progress bar (a 201 x 201 map takes a
@@ -395,19 +363,16 @@ def _rect_json(amap: AcceptanceMap, rect: Any) -> dict[str, Any] | None:
 def _cmd_map(args: argparse.Namespace) -> int:
     physics = _physics(args)
     design = _design(args)
-    bar = _progress(args, "map", "poses") if args.grid >= MAP_PROGRESS_GRID else None
-    try:
+    quiet = args.quiet or args.grid < MAP_PROGRESS_GRID
+    with terminal_progress(quiet, partial(ProgressBar, label="map", unit="poses")) as bar:
         amap = acceptance_map(
             design,
             grid=args.grid,
             theta_kind=args.theta_grid,
             physics=physics,
             coarse=args.coarse,
-            progress=bar,
+            progress=None if bar is None else bar.step,
         )
-    finally:
-        if bar is not None:
-            bar.close()
     if args.png or args.svg:
         from .viz.mapimage import save_map_picture
 
@@ -549,7 +514,7 @@ def _cmd_compare(args: argparse.Namespace) -> int:
 
 
 def _table_for(
-    face: str, args: argparse.Namespace, physics: Physics, progress: _TerminalProgress | None
+    face: str, args: argparse.Namespace, physics: Physics, progress: Progress | None
 ) -> MTable:
     method = args.method
     if method == "bound" and face == "X":
@@ -575,12 +540,10 @@ def _cmd_table(args: argparse.Namespace) -> int:
     faces = ["X", "V", "S"] if args.face == "ALL" else [args.face]
     tables = {}
     for f in faces:
-        bar = _progress(args, f"{f}-Face table", "designs") if args.method == "sim" else None
-        try:
-            tables[f] = _table_for(f, args, physics, bar)
-        finally:
-            if bar is not None:
-                bar.close()
+        quiet = args.quiet or args.method != "sim"  # the bound is closed-form: instant
+        bar_kind = partial(ProgressBar, label=f"{f}-Face table")
+        with terminal_progress(quiet, bar_kind) as bar:
+            tables[f] = _table_for(f, args, physics, None if bar is None else bar.step)
     if args.json:
         out = {
             f: {

@@ -14,9 +14,11 @@ import json
 import signal
 import sys
 from collections.abc import Iterator
-from contextlib import contextmanager
-from typing import Any, TextIO
+from contextlib import AbstractContextManager, contextmanager
+from functools import partial
+from typing import Any
 
+from . import progressbar
 from .designsearch import CRITERIA, PAPER_BOX_H_OVER_D, PAPER_BOX_R_P, search_designs
 from .designspace import DesignSpace, parse_face_list, parse_number_list
 from .errors import XfaceValueError
@@ -30,38 +32,15 @@ __all__ = ["add_study_commands"]
 EXIT_INTERRUPTED = 130
 
 
-class ProgressBar:
-    """A one-line progress bar on a terminal: designs done, to do, skipped, time left."""
-
-    def __init__(self, stream: TextIO, label: str) -> None:
-        self.stream, self.label = stream, label
-        self.shown = False
+class ProgressBar(progressbar.ProgressBar):
+    """A study's progress bar: designs done, to do, already there, time left."""
 
     def __call__(self, p: StudyProgress) -> None:
-        width = 30
-        filled = width if p.total == 0 else width * p.done // p.total
-        eta = f", about {p.elapsed / p.done * (p.total - p.done):.0f} s left" if p.done else ""
-        self.stream.write(
-            f"\r{self.label} [{'#' * filled}{'.' * (width - filled)}] {p.done}/{p.total} designs"
-            f" ({p.skipped} already done), {p.elapsed:.0f} s{eta} "
-        )
-        self.stream.flush()
-        self.shown = True
-
-    def close(self) -> None:
-        if self.shown:
-            self.stream.write("\n")
-            self.stream.flush()
+        self.draw(p.done, p.total, p.elapsed, f" ({p.skipped} already done)")
 
 
-@contextmanager
-def _progress(args: argparse.Namespace, label: str) -> Iterator[ProgressBar | None]:
-    bar = None if args.quiet or not sys.stderr.isatty() else ProgressBar(sys.stderr, label)
-    try:
-        yield bar
-    finally:
-        if bar is not None:
-            bar.close()
+def _progress(args: argparse.Namespace, label: str) -> AbstractContextManager[ProgressBar | None]:
+    return progressbar.terminal_progress(args.quiet, partial(ProgressBar, label=label))
 
 
 @contextmanager
