@@ -65,7 +65,8 @@ class AtlasKeeper:
         thread = threading.Thread(
             target=self._run, args=(key, config), name="xface_atlas", daemon=True
         )
-        self._threads.append(thread)
+        # Finished builds are forgotten: a node whose design changes often keeps no list.
+        self._threads = [t for t in self._threads if t.is_alive()] + [thread]
         thread.start()
         return None
 

@@ -245,6 +245,13 @@ def _reach(row: FloatArray) -> float:
 
 
 @njit_no_refcount
+def _travel(row: FloatArray, h: float, turn: float) -> float:
+    """How far (D) the pair's vertex can move relative to its edge in a step of descent
+    ``h`` (D) that turns the parts by ``turn`` (rad, both parts together)."""
+    return h + turn * _reach(row)
+
+
+@njit_no_refcount
 def _segment_distance(row: FloatArray, g: float, u: float) -> float:
     """Distance (D) of the pair's vertex from its edge (the segment, not the line)."""
     if 0.0 <= u <= 1.0:
@@ -295,7 +302,7 @@ def _contacts_inside_step(
         if (n_act > 0 and act[0] == i) or (n_act > 1 and act[1] == i):
             continue
         row = pairs[i]
-        bound = h_end + turn * _reach(row)
+        bound = _travel(row, h_end, turn)
         if (
             min(
                 _segment_distance(row, g_prev[i], u_prev[i]),
@@ -381,9 +388,9 @@ def _crossed_at_event(opts: Options, seg: Segment, step: Step, work: Work, nb: f
     for i in range(pairs.shape[0]):
         row = pairs[i]
         # Only a pair with u near the corner at either end of the step can have it there
-        # at the event (the vertex moves by at most h + turn * reach relative to the edge;
-        # twice that bounds the change of u times the edge's length).
-        travel = 2.0 * (best.h + turn * _reach(row))
+        # at the event (twice the vertex's travel relative to the edge bounds the change of
+        # u times the edge's length).
+        travel = 2.0 * _travel(row, best.h, turn)
         length = math.hypot(row[5] - row[3], row[6] - row[4])
         if min(abs(u_prev[i]), abs(u_next[i])) - 0.5 > travel / length:
             continue
