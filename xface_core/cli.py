@@ -285,6 +285,7 @@ def _pose_uncertainty(
     if args.sigma_x is None and args.sigma_theta is None:
         return None
     from .approach import suggest_approach
+    from .atlas import build_atlas
     from .probability import seat_probability
 
     sx = 0.0 if args.sigma_x is None else args.sigma_x
@@ -294,7 +295,9 @@ def _pose_uncertainty(
     if not 0.0 < args.level < 1.0:
         raise XfaceValueError(f"--level must be in (0, 1), got {args.level}")
     cov = [[sx * sx, 0.0], [0.0, st * st]]
-    p = float(seat_probability(design, args.x0, args.theta0, cov, physics=physics))
+    # One atlas for both questions (each would otherwise build its own: seconds).
+    atlas = build_atlas(design, physics=physics)
+    p = float(seat_probability(design, args.x0, args.theta0, cov, physics=physics, atlas=atlas))
     out: dict[str, Any] = {
         "sigma_x": sx,
         "sigma_theta": st,
@@ -303,7 +306,9 @@ def _pose_uncertainty(
         "suggestion": None,
     }
     if p < args.level:
-        g = suggest_approach(design, args.x0, args.theta0, cov, level=args.level, physics=physics)
+        g = suggest_approach(
+            design, args.x0, args.theta0, cov, level=args.level, physics=physics, atlas=atlas
+        )
         out["suggestion"] = {
             "dx": g.dx,
             "dtheta": g.dtheta,
