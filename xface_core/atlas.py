@@ -26,9 +26,10 @@ from __future__ import annotations
 
 import hashlib
 import math
+import threading
 import time
 import zipfile
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 
 import numpy as np
@@ -71,6 +72,34 @@ DEFAULT_COARSE_STRIDE = 8
 MAX_ATLAS_NODES = 4_000_000
 
 
+class FlipStore:
+    """Flip positions on an atlas's grid lines, found lazily and kept (thread-safe).
+
+    Key ``(axis, line, node)``: the flip on grid line ``line`` (axis 0: the column
+    ``theta0[line]``, searched along x0; axis 1: the row ``x0[line]``, searched along theta0)
+    between nodes ``node`` and ``node + 1``. Value ``(lo, hi)``: a bracket of it in the
+    line's coordinate (D or rad), ``lo`` with the outcome of node ``node``, ``hi`` with
+    another one. Shared by every copy of the atlas (:meth:`AcceptanceAtlas.bound_to`): the
+    flips are in units of D, the same for any width.
+    """
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._known: dict[tuple[int, int, int], tuple[float, float]] = {}
+
+    def get(self, key: tuple[int, int, int]) -> tuple[float, float] | None:
+        with self._lock:
+            return self._known.get(key)
+
+    def put(self, key: tuple[int, int, int], bracket: tuple[float, float]) -> None:
+        with self._lock:
+            self._known[key] = bracket
+
+    def __len__(self) -> int:
+        with self._lock:
+            return len(self._known)
+
+
 @dataclass(frozen=True, eq=False)
 class AcceptanceAtlas:
     """Outcomes of one design and physics on a regular (x0, theta0) grid.
@@ -96,6 +125,9 @@ class AcceptanceAtlas:
         default start of :func:`~xface_core.predict`.
     build_seconds : float
         Wall time of the build (0 when loaded from the cache).
+    flips : FlipStore
+        Flips on the grid lines bisected so far (:mod:`xface_core.atlas_flips`); grows as
+        queries touch boundaries, never stored on disk.
     """
 
     design: FaceDesign
@@ -107,6 +139,7 @@ class AcceptanceAtlas:
     simulated: npt.NDArray[np.bool_]
     start_clearance: float = START_CLEARANCE
     build_seconds: float = 0.0
+    flips: FlipStore = field(default_factory=FlipStore, repr=False)
 
     def __post_init__(self) -> None:
         # Read-only arrays: one atlas is shared by every query (and thread) that uses it.

@@ -23,6 +23,7 @@ import numpy as np
 import numpy.typing as npt
 
 from .atlas import AcceptanceAtlas
+from .atlas_flips import FlipKey, grid_flips
 from .errors import XfaceValueError
 from .margins import (
     ANGLE_RESOLUTION,
@@ -38,6 +39,13 @@ from .runner import check_pose, clear_start_height, predict_batch
 
 __all__ = ["margins_from_atlas"]
 
+#: The grid lines' own flips are bisected this much finer than the margins' resolution, so
+#: the interpolation between them is limited by the boundary's curvature, not by them.
+LINE_FLIP_REFINEMENT = 4.0
+#: Half-width of the confirmed bracket around an interpolated flip, in units of the
+#: resolution: just under half, so the bracket is narrower than the exact search's.
+CONFIRM_HALF_WIDTH = 0.45
+
 
 @dataclass
 class _HalfAxis:
@@ -48,6 +56,9 @@ class _HalfAxis:
     offsets: npt.NDArray[np.float64]  # the atlas grid lines crossed, nearest first
     predicted: npt.NDArray[np.int8]  # atlas outcome there, -1 when its two nodes disagree
     limit: float
+    nodes: npt.NDArray[np.intp]  # grid index of each crossing along the axis
+    lines: tuple[int, int]  # the two grid lines either side of the query's line
+    weight: float  # where the query's line lies between them (0: on the first, 1: second)
     lo: float = 0.0  # largest offset known to have the query's outcome
     hi: float = math.inf  # smallest offset known to differ (inf: none yet)
     cursor: int = 0  # next crossing to read from the atlas
@@ -57,23 +68,29 @@ def _half_axes(
     atlas: AcceptanceAtlas, x_d: float, theta0: float, limit_x: float
 ) -> list[_HalfAxis]:
     """The four half-axis searches with the atlas's outcomes along them."""
-    i, k = atlas.cell_index(x_d, theta0)
+    i_, k_ = atlas.cell_index(x_d, theta0)
+    i, k = int(i_), int(k_)
     out = atlas.outcomes
     row = np.where(out[:, k] == out[:, k + 1], out[:, k], -1).astype(np.int8)
     col = np.where(out[i, :] == out[i + 1, :], out[i, :], -1).astype(np.int8)
+    w_theta = (theta0 - atlas.theta0[k]) / atlas.angle_step
+    w_x = (x_d - atlas.x0[i]) / atlas.lateral_step
     axes = []
-    for axis, nodes, line, value, limit in (
-        (0, atlas.x0, row, x_d, limit_x),
-        (1, atlas.theta0, col, theta0, math.pi),
+    for axis, coords, line, value, limit, lines, weight in (
+        (0, atlas.x0, row, x_d, limit_x, (k, k + 1), w_theta),
+        (1, atlas.theta0, col, theta0, math.pi, (i, i + 1), w_x),
     ):
         for direction in (-1.0, 1.0):
-            ahead = (nodes - value) * direction > 0.0
-            off = (nodes[ahead] - value) * direction
-            pred = line[ahead]
+            ahead = np.flatnonzero((coords - value) * direction > 0.0)
+            off = (coords[ahead] - value) * direction
             order = np.argsort(off)
-            off, pred = off[order], pred[order]
-            keep = off <= limit
-            axes.append(_HalfAxis(axis, direction, off[keep], pred[keep], limit))
+            keep = order[off[order] <= limit]
+            axes.append(
+                _HalfAxis(
+                    axis, direction, off[keep], line[ahead][keep], limit,
+                    ahead[keep], lines, float(weight),
+                )
+            )  # fmt: skip
     return axes
 
 
@@ -93,6 +110,69 @@ def _exact(
     design = atlas.design
     xs, ts = _poses(x_d, theta0, h.axis, h.direction, offsets)
     return predict_batch(design, xs * design.width, ts, physics=atlas.physics).outcome
+
+
+def _line_flip(atlas: AcceptanceAtlas, h: _HalfAxis, line: int, q: int) -> FlipKey | None:
+    """The grid segment where ``line`` first flips from ``q`` along the half-axis, or None
+    when the line does not have ``q`` at the node before its first node ahead of the query,
+    or never leaves ``q`` within the search."""
+    along = atlas.outcomes[:, line] if h.axis == 0 else atlas.outcomes[line, :]
+    step = 1 if h.direction > 0 else -1
+    if h.nodes.size == 0:
+        return None
+    first = int(h.nodes[0])
+    if not 0 <= first - step < along.size or int(along[first - step]) != q:
+        return None
+    codes = along[h.nodes]
+    differ = np.flatnonzero(codes != q)
+    if differ.size == 0:
+        return None
+    node = int(h.nodes[int(differ[0])])
+    return (h.axis, line, min(node, node - step))
+
+
+def _interpolate(
+    atlas: AcceptanceAtlas,
+    x_d: float,
+    theta0: float,
+    q: int,
+    axes: list[_HalfAxis],
+    resolution: tuple[float, float],
+) -> None:
+    """Bracket each half-axis's first flip from the first flips of the two grid lines either
+    side of it, where both start with the query's outcome: the flip is interpolated between
+    theirs and the bracket ``[g - delta, g + delta]`` (``2 delta``
+    just under the resolution) confirmed by two exact simulations, all half-axes in one
+    batch. A half-axis left with ``hi = inf`` takes the full search (:func:`_confirm`)."""
+    plans: list[tuple[_HalfAxis, FlipKey, FlipKey]] = []
+    for h in axes:
+        first, second = (_line_flip(atlas, h, line, q) for line in h.lines)
+        if first is not None and second is not None:
+            plans.append((h, first, second))
+    if not plans:
+        return
+    line_res = (resolution[0] / LINE_FLIP_REFINEMENT, resolution[1] / LINE_FLIP_REFINEMENT)
+    brackets = grid_flips(atlas, [key for _, *pair in plans for key in pair], line_res)
+    guesses = []
+    for n, (h, _, _) in enumerate(plans):
+        (lo1, hi1), (lo2, hi2) = brackets[2 * n], brackets[2 * n + 1]
+        flip = (1.0 - h.weight) * 0.5 * (lo1 + hi1) + h.weight * 0.5 * (lo2 + hi2)
+        value = x_d if h.axis == 0 else theta0
+        guesses.append((flip - value) * h.direction)
+    xs, ts = [], []
+    for (h, _, _), g in zip(plans, guesses, strict=True):
+        delta = CONFIRM_HALF_WIDTH * resolution[h.axis]
+        x, t = _poses(x_d, theta0, h.axis, h.direction, [g - delta, g + delta])
+        xs.append(x)
+        ts.append(t)
+    design = atlas.design
+    codes = predict_batch(
+        design, np.concatenate(xs) * design.width, np.concatenate(ts), physics=atlas.physics
+    ).outcome
+    for n, ((h, _, _), g) in enumerate(zip(plans, guesses, strict=True)):
+        delta = CONFIRM_HALF_WIDTH * resolution[h.axis]
+        if g - delta > 0.0 and codes[2 * n] == q and codes[2 * n + 1] != q:
+            h.lo, h.hi = g - delta, g + delta
 
 
 def _confirm(atlas: AcceptanceAtlas, x_d: float, theta0: float, q: int, h: _HalfAxis) -> None:
@@ -246,8 +326,10 @@ def margins_from_atlas(
     q = int(outcome)
     limit_x = 2.0 * design.mated_distance
     axes = _half_axes(atlas, x_d, theta0, limit_x)
+    _interpolate(atlas, x_d, theta0, q, axes, (lateral_res, angle_res))
     for h in axes:
-        _confirm(atlas, x_d, theta0, q, h)
+        if math.isinf(h.hi):
+            _confirm(atlas, x_d, theta0, q, h)
     _bisect_all(atlas, x_d, theta0, q, axes, (lateral_res, angle_res))
     found = []
     for h in axes:

@@ -130,3 +130,43 @@ def test_a_start_clear_of_the_base_at_every_angle_is_read_from_the_atlas(
     outcome = xf.predict(design, 0.1, 0.1, y_start=y_start, path=False).outcome
     got = xf.margins_from_atlas(v_atlas, 0.1, 0.1, outcome, y_start=y_start)
     assert _agree(got, exact, design.width)
+
+
+def test_with_the_grid_flips_known_a_query_takes_one_batch(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # A robot holding its pose: the boundaries around it are known after the first query,
+    # so the next query's four flips are interpolated and confirmed in one batch.
+    atlas = build_atlas(xf.x_face(0.25, 1.0), **COARSE)
+    design = atlas.design
+    outcome = xf.predict(design, 0.05, 0.1, path=False).outcome
+    xf.margins_from_atlas(atlas, 0.05, 0.1, outcome)
+    calls: list[int] = []
+    counted = atlas_margins.predict_batch
+
+    def counting(design: xf.FaceDesign, x0: np.ndarray, *args: object, **kw: object) -> object:
+        calls.append(len(x0))
+        return counted(design, x0, *args, **kw)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(atlas_margins, "predict_batch", counting)
+    got = xf.margins_from_atlas(atlas, 0.05 + 1e-4, 0.1 + 1e-4, outcome)
+    exact = xf.outcome_margins(design, 0.05 + 1e-4, 0.1 + 1e-4, outcome)
+    assert calls == [8]
+    assert _agree(got, exact, design.width)
+
+
+def test_a_wrong_interpolated_flip_is_caught_by_its_confirmation(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    atlas = build_atlas(xf.x_face(0.25, 1.0), **COARSE)
+    design = atlas.design
+    real = atlas_margins.grid_flips
+
+    def shifted(*args: object, **kwargs: object) -> list[tuple[float, float]]:
+        # Every grid-line flip reported 0.01 (D or rad) too far: no bracket confirms.
+        return [(lo + 0.01, hi + 0.01) for lo, hi in real(*args, **kwargs)]  # type: ignore[arg-type]
+
+    monkeypatch.setattr(atlas_margins, "grid_flips", shifted)
+    outcome = xf.predict(design, 0.05, 0.1, path=False).outcome
+    got = xf.margins_from_atlas(atlas, 0.05, 0.1, outcome)
+    assert _agree(got, xf.outcome_margins(design, 0.05, 0.1, outcome), design.width)
