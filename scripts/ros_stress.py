@@ -8,7 +8,8 @@ Starts the node as its own process (``python -m xface_ros`` with config/xface.ya
 from this process:
 
 * publishes poses at ``--rate`` Hz for ``--duration`` s from a dedicated thread, cycling
-  through poses that seat and poses that do not, each stamped when it is sent;
+  through poses that seat and poses that do not, each with a sensor's noise added (``--jitter-m``,
+  ``--jitter-rad``: no two alike) and stamped when it is sent;
 * receives every ``prediction/status`` and takes the latency from the input stamp to the
   arrival of the status here (so it includes both DDS hops, the wait for the worker and the
   simulation);
@@ -36,11 +37,17 @@ import time
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 ROOT = Path(__file__).resolve().parents[1]
 
 #: (x0 / D, theta0 rad) cycled by the stream: seats, seats, jams, out of reach, misses.
 POSES = [(0.0, 0.0), (0.3, 0.2), (0.9, 0.8), (2.5, 0.0), (1.5, 0.3), (-0.4, -0.3)]
 WIDTH = 0.05  # config/xface.yaml
+#: Default noise on each streamed pose (a camera's or lidar's pose estimate): 0.5 mm and
+#: 5 mrad standard deviation, so no two queries are alike.
+JITTER_M = 0.0005
+JITTER_RAD = 0.005
 Y_START = 3.0 * WIDTH
 
 
@@ -69,6 +76,9 @@ def run_stress(
     params_file: Path,
     node_args: list[str],
     log_path: Path | None,
+    jitter_m: float = 0.0,
+    jitter_rad: float = 0.0,
+    seed: int = 0,
 ) -> dict[str, Any]:
     """Run one stress session; returns the measurements (see the module docstring)."""
     env = dict(os.environ)
@@ -147,11 +157,19 @@ def run_stress(
             if node.poll() is not None or time.monotonic() > deadline:
                 raise RuntimeError("the node's atlas did not become ready")
             time.sleep(0.1)
+        # Every message its own pose: the cycle's poses with a sensor's noise added (no two
+        # queries alike, as from a real pose estimate), made before the stream starts.
+        rng = np.random.default_rng(seed)
         messages = []
-        for x0_widths, theta0 in POSES:
+        for i in range(round(rate_hz * duration_s)):
+            x0_widths, theta0 = POSES[i % len(POSES)]
             msg = PoseStamped()
             msg.header.frame_id = "xface_base"
-            start = DockStart(x0_widths * WIDTH, theta0, Y_START)
+            start = DockStart(
+                x0_widths * WIDTH + rng.normal(0.0, jitter_m),
+                theta0 + rng.normal(0.0, jitter_rad),
+                Y_START,
+            )
             msg.pose = planar_to_pose(start_to_relative_pose(start))
             messages.append(msg)
 
@@ -170,7 +188,7 @@ def run_stress(
                 delay = target - time.perf_counter()
                 if delay > 0:
                     time.sleep(delay)
-                msg = messages[i % len(messages)]
+                msg = messages[i]
                 msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(
                     time.time_ns(), 1_000_000_000
                 )
@@ -305,6 +323,15 @@ def main(argv: list[str] | None = None) -> int:
         help="extra node argument after --ros-args (repeat), e.g. --node-arg=-p "
         "--node-arg=compute_margins:=false",
     )  # fmt: skip
+    parser.add_argument(
+        "--jitter-m", type=float, default=JITTER_M,
+        help="standard deviation of the noise added to each pose's x0 (m)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--jitter-rad", type=float, default=JITTER_RAD,
+        help="standard deviation of the noise added to each pose's theta0 (rad)",
+    )  # fmt: skip
+    parser.add_argument("--seed", type=int, default=0, help="seed of the noise")
     parser.add_argument("--json", type=Path, help="also write the results here")
     parser.add_argument("--node-log", type=Path, help="write the node's output here")
     args = parser.parse_args(argv)
@@ -315,6 +342,9 @@ def main(argv: list[str] | None = None) -> int:
         params_file=args.params_file,
         node_args=args.node_arg,
         log_path=args.node_log,
+        jitter_m=args.jitter_m,
+        jitter_rad=args.jitter_rad,
+        seed=args.seed,
     )
     print(summary(result), flush=True)
     if args.json:

@@ -17,6 +17,8 @@ one between two of its nodes).
 from __future__ import annotations
 
 import math
+import threading
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -35,7 +37,7 @@ from .margins import (
 )
 from .outcome import Outcome
 from .result import Margins
-from .runner import check_pose, clear_start_height, predict_batch
+from .runner import DEFAULT_THREADS, check_pose, clear_start_height, predict_batch
 
 __all__ = ["margins_from_atlas"]
 
@@ -112,6 +114,48 @@ def _exact(
     return predict_batch(design, xs * design.width, ts, physics=atlas.physics).outcome
 
 
+_POOL: ThreadPoolExecutor | None = None
+_POOL_LOCK = threading.Lock()
+
+
+def _pool() -> ThreadPoolExecutor:
+    """One long-lived helper thread per extra core (a pool per call would cost more than a
+    confirmation batch saves)."""
+    global _POOL
+    with _POOL_LOCK:
+        if _POOL is None:
+            _POOL = ThreadPoolExecutor(
+                max(1, DEFAULT_THREADS - 1), thread_name_prefix="xface-confirm"
+            )
+        return _POOL
+
+
+def _outcomes_split(
+    atlas: AcceptanceAtlas, x_d: npt.NDArray[np.float64], theta0: npt.NDArray[np.float64]
+) -> npt.NDArray[np.int8]:
+    """Exact outcomes of a few poses (x0 in D) split over the cores: confirmation poses lie
+    on boundaries, where a simulation costs several times a typical one, so even eight of
+    them are worth a second thread (``predict_batch`` splits only large batches)."""
+    design, physics = atlas.design, atlas.physics
+    parts = min(DEFAULT_THREADS, x_d.size)
+    if parts <= 1:
+        return predict_batch(design, x_d * design.width, theta0, physics=physics).outcome
+    chunks = [slice(k, None, parts) for k in range(parts)]
+    futures = [
+        _pool().submit(
+            predict_batch, design, x_d[c] * design.width, theta0[c], physics=physics, threads=1
+        )
+        for c in chunks[1:]
+    ]
+    out = np.empty(x_d.size, dtype=np.int8)
+    out[chunks[0]] = predict_batch(
+        design, x_d[chunks[0]] * design.width, theta0[chunks[0]], physics=physics, threads=1
+    ).outcome
+    for c, future in zip(chunks[1:], futures, strict=True):
+        out[c] = future.result().outcome
+    return out
+
+
 def _line_flip(atlas: AcceptanceAtlas, h: _HalfAxis, line: int, q: int) -> FlipKey | None:
     """The grid segment where ``line`` first flips from ``q`` along the half-axis, or None
     when the line does not have ``q`` at the node before its first node ahead of the query,
@@ -165,10 +209,7 @@ def _interpolate(
         x, t = _poses(x_d, theta0, h.axis, h.direction, [g - delta, g + delta])
         xs.append(x)
         ts.append(t)
-    design = atlas.design
-    codes = predict_batch(
-        design, np.concatenate(xs) * design.width, np.concatenate(ts), physics=atlas.physics
-    ).outcome
+    codes = _outcomes_split(atlas, np.concatenate(xs), np.concatenate(ts))
     for n, ((h, _, _), g) in enumerate(zip(plans, guesses, strict=True)):
         delta = CONFIRM_HALF_WIDTH * resolution[h.axis]
         if g - delta > 0.0 and codes[2 * n] == q and codes[2 * n + 1] != q:

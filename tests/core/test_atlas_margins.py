@@ -132,11 +132,11 @@ def test_a_start_clear_of_the_base_at_every_angle_is_read_from_the_atlas(
     assert _agree(got, exact, design.width)
 
 
-def test_with_the_grid_flips_known_a_query_takes_one_batch(
+def test_with_the_grid_flips_known_a_query_takes_eight_simulations(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     # A robot holding its pose: the boundaries around it are known after the first query,
-    # so the next query's four flips are interpolated and confirmed in one batch.
+    # so the next query's four flips are interpolated and confirmed with two simulations each.
     atlas = build_atlas(xf.x_face(0.25, 1.0), **COARSE)
     design = atlas.design
     outcome = xf.predict(design, 0.05, 0.1, path=False).outcome
@@ -151,7 +151,7 @@ def test_with_the_grid_flips_known_a_query_takes_one_batch(
     monkeypatch.setattr(atlas_margins, "predict_batch", counting)
     got = xf.margins_from_atlas(atlas, 0.05 + 1e-4, 0.1 + 1e-4, outcome)
     exact = xf.outcome_margins(design, 0.05 + 1e-4, 0.1 + 1e-4, outcome)
-    assert calls == [8]
+    assert sum(calls) == 8
     assert _agree(got, exact, design.width)
 
 
@@ -170,3 +170,11 @@ def test_a_wrong_interpolated_flip_is_caught_by_its_confirmation(
     outcome = xf.predict(design, 0.05, 0.1, path=False).outcome
     got = xf.margins_from_atlas(atlas, 0.05, 0.1, outcome)
     assert _agree(got, xf.outcome_margins(design, 0.05, 0.1, outcome), design.width)
+
+
+def test_confirmation_poses_split_over_threads_give_the_batch_outcomes() -> None:
+    atlas = build_atlas(xf.x_face(0.25, 1.0), **COARSE)
+    rng = np.random.default_rng(3)
+    xs, ts = rng.uniform(-1.0, 1.0, 9), rng.uniform(-1.0, 1.0, 9)
+    split = atlas_margins._outcomes_split(atlas, xs, ts)
+    assert np.array_equal(split, xf.predict_batch(atlas.design, xs, ts).outcome)
