@@ -2,12 +2,17 @@
 atlas against the exact margin search, and of the seat probability.
 
 Reports medians (and the simulations each margins call ran) on random poses of each design;
-the ratio is exact search over atlas. Times are wall times of this machine as it is: on a
-shared, loaded machine they are upper bounds, say so when quoting them.
+the ratio is exact search over atlas. Then a robot's stream: poses jittered around a held pose
+(0.01 D, 0.005 rad standard deviation), over the second half of the queries of each held pose
+(the first half has bisected the grid-line flips around it): the margins' time and
+simulations per query, and what one of the confirmation simulations costs against the
+query's own simulation (each timed alone, one thread).
+Times are wall times of this machine as it is: on a shared, loaded machine they are upper
+bounds, say so when quoting them.
 
 Usage::
 
-    python scripts/bench_atlas.py [--poses 60] [--builds 3] [--seed 1]
+    python scripts/bench_atlas.py [--poses 60] [--builds 3] [--held 5] [--stream 40] [--seed 1]
 """
 
 from __future__ import annotations
@@ -20,6 +25,7 @@ from collections.abc import Callable
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 import xface_core as xf
 import xface_core.atlas_margins as atlas_margins_module
@@ -58,10 +64,68 @@ def timed(fn: Callable[[], object]) -> float:
     return time.perf_counter() - t0
 
 
+def single_time(design: xf.FaceDesign, x0: float, theta0: float, repeats: int = 3) -> float:
+    """Fastest of ``repeats`` one-pose, one-thread simulations (s)."""
+    return min(
+        timed(lambda: xf.predict_batch(design, [x0], [theta0], threads=1)) for _ in range(repeats)
+    )
+
+
+def stream(
+    design: xf.FaceDesign,
+    atlas: xf.AcceptanceAtlas,
+    held: int,
+    per_pose: int,
+    rng: np.random.Generator,
+    counter: SimulationCounter,
+) -> None:
+    """Margins for a stream of jittered poses around ``held`` random seated poses."""
+    confirmations: list[tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]] = []
+    real_split = atlas_margins_module._outcomes_split
+
+    def capture(a: xf.AcceptanceAtlas, xs: Any, ts: Any) -> Any:
+        confirmations.append((xs * a.design.width, ts))
+        return real_split(a, xs, ts)
+
+    atlas_margins_module._outcomes_split = capture  # type: ignore[assignment]
+    times, sims, ratios = [], [], []
+    seated = np.argwhere(atlas.outcomes == xf.Outcome.SEATED)
+    seated = seated[np.abs(atlas.theta0[seated[:, 1]]) <= math.pi / 2]
+    for i, k in seated[rng.integers(0, len(seated), held)]:
+        x_held, t_held = atlas.x0[i] * design.width, atlas.theta0[k]
+        for n in range(per_pose):
+            x0 = x_held + rng.normal(0.0, 0.01) * design.width
+            theta0 = t_held + rng.normal(0.0, 0.005)
+            outcome = xf.predict(design, x0, theta0, path=False).outcome
+            counter.take()
+            confirmations.clear()
+            t = timed(lambda: xf.margins_from_atlas(atlas, x0, theta0, outcome))  # noqa: B023
+            if n < per_pose // 2:  # warm-up: the grid-line flips around the held pose
+                continue
+            times.append(t)
+            sims.append(counter.take()[0])
+            if confirmations:
+                xs, ts = confirmations[0]
+                own = single_time(design, x0, theta0)
+                each = [single_time(design, x, t) for x, t in zip(xs, ts, strict=True)]
+                ratios.append(statistics.mean(each) / own)
+    atlas_margins_module._outcomes_split = real_split  # type: ignore[assignment]
+    print(
+        f"  stream ({held} held poses x {per_pose} jittered queries, the last "
+        f"{per_pose - per_pose // 2} of each): margins median "
+        f"{statistics.median(times) * 1e3:.1f} ms, {statistics.median(sims):.0f} simulations "
+        f"(mean {statistics.mean(sims):.1f}); a confirmation simulation costs "
+        f"{statistics.median(ratios):.1f}x the query's own (median; 10-90 %: "
+        f"{np.percentile(ratios, 10):.1f}-{np.percentile(ratios, 90):.1f}x)"
+    )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--poses", type=int, default=60)
     parser.add_argument("--builds", type=int, default=3)
+    parser.add_argument("--held", type=int, default=5, help="held poses of the stream")
+    parser.add_argument("--stream", type=int, default=40, help="jittered queries per held pose")
     parser.add_argument("--seed", type=int, default=1)
     args = parser.parse_args()
     rng = np.random.default_rng(args.seed)
@@ -105,6 +169,7 @@ def main() -> None:
             f"  seat_probability per query, sigma 0.05 D and 0.05 rad (median): "
             f"{statistics.median(prob_t) * 1e3:.1f} ms"
         )
+        stream(design, atlas, args.held, args.stream, rng, counter)
 
 
 if __name__ == "__main__":

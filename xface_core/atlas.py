@@ -86,6 +86,16 @@ class FlipStore:
     def __init__(self) -> None:
         self._lock = threading.Lock()
         self._known: dict[tuple[int, int, int], tuple[float, float]] = {}
+        self._asked: set[tuple[int, int, int]] = set()
+
+    def worth_finding(self, keys: list[tuple[int, int, int]]) -> bool:
+        """True when every key is known or was asked for before (then bisecting the unknown
+        ones pays: a second query came by); records the ask. A one-off query is cheaper
+        with a search along its own line than with the bisection of two grid lines."""
+        with self._lock:
+            again = all(k in self._known or k in self._asked for k in keys)
+            self._asked.update(keys)
+            return again
 
     def get(self, key: tuple[int, int, int]) -> tuple[float, float] | None:
         with self._lock:

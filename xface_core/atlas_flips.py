@@ -5,8 +5,9 @@ between the atlas's grid lines. Where the two grid lines either side of a query'
 flip between the same two nodes, the query's flip lies close to the straight line between
 theirs: interpolating it and confirming the interpolated bracket with two exact simulations
 replaces a bisection of ten sequential steps. The grid lines' own flips are bisected once,
-the first time a query needs them, and kept: a robot holding or slowly changing its pose keeps
-asking about the same few boundaries.
+the second time a query needs them (a one-off query is cheaper searched along its own line),
+and kept: a robot holding or slowly changing its pose keeps asking about the same few
+boundaries.
 
 A grid-line flip is bisected from the atlas's two node outcomes (the node's own outcome on the
 ``lo`` side); the nodes either side of a boundary are always simulated ones (the atlas's

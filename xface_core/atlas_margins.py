@@ -47,6 +47,11 @@ LINE_FLIP_REFINEMENT = 4.0
 #: Half-width of the confirmed bracket around an interpolated flip, in units of the
 #: resolution: just under half, so the bracket is narrower than the exact search's.
 CONFIRM_HALF_WIDTH = 0.45
+#: A bracket that did not confirm is followed by GALLOP_PROBES probes at GALLOP_FIRST,
+#: 2 GALLOP_FIRST, 4 GALLOP_FIRST, ... resolutions past its far side (one batch): the
+#: interpolation is usually off by a few resolutions where the boundary curves.
+GALLOP_FIRST = 0.9
+GALLOP_PROBES = 6
 
 
 @dataclass
@@ -191,7 +196,9 @@ def _interpolate(
     plans: list[tuple[_HalfAxis, FlipKey, FlipKey]] = []
     for h in axes:
         first, second = (_line_flip(atlas, h, line, q) for line in h.lines)
-        if first is not None and second is not None:
+        if first is None or second is None:
+            continue
+        if atlas.flips.worth_finding([first, second]):
             plans.append((h, first, second))
     if not plans:
         return
@@ -203,17 +210,69 @@ def _interpolate(
         flip = (1.0 - h.weight) * 0.5 * (lo1 + hi1) + h.weight * 0.5 * (lo2 + hi2)
         value = x_d if h.axis == 0 else theta0
         guesses.append((flip - value) * h.direction)
-    xs, ts = [], []
+    tries = []
     for (h, _, _), g in zip(plans, guesses, strict=True):
         delta = CONFIRM_HALF_WIDTH * resolution[h.axis]
-        x, t = _poses(x_d, theta0, h.axis, h.direction, [g - delta, g + delta])
-        xs.append(x)
-        ts.append(t)
-    codes = _outcomes_split(atlas, np.concatenate(xs), np.concatenate(ts))
-    for n, ((h, _, _), g) in enumerate(zip(plans, guesses, strict=True)):
-        delta = CONFIRM_HALF_WIDTH * resolution[h.axis]
-        if g - delta > 0.0 and codes[2 * n] == q and codes[2 * n + 1] != q:
-            h.lo, h.hi = g - delta, g + delta
+        if g - delta > 0.0:
+            tries.append((h, np.array([g - delta, g + delta])))
+    missed = []
+    for (h, offsets), codes in zip(tries, _probe(atlas, x_d, theta0, tries), strict=True):
+        if codes[0] == q and codes[1] != q:
+            h.lo, h.hi = float(offsets[0]), float(offsets[1])
+        elif codes[0] == q or codes[1] != q:  # beyond the bracket, or before it
+            missed.append((h, offsets, codes[0] == q))
+    _gallop(atlas, x_d, theta0, q, missed, resolution)
+
+
+def _probe(
+    atlas: AcceptanceAtlas,
+    x_d: float,
+    theta0: float,
+    tries: list[tuple[_HalfAxis, npt.NDArray[np.float64]]],
+) -> list[npt.NDArray[np.int8]]:
+    """Exact outcomes at offsets along several half-axes: one batch, split over the cores."""
+    if not tries:
+        return []
+    poses = [_poses(x_d, theta0, h.axis, h.direction, off) for h, off in tries]
+    codes = _outcomes_split(
+        atlas, np.concatenate([x for x, _ in poses]), np.concatenate([t for _, t in poses])
+    )
+    return np.split(codes, np.cumsum([off.size for _, off in tries])[:-1])
+
+
+def _gallop(
+    atlas: AcceptanceAtlas,
+    x_d: float,
+    theta0: float,
+    q: int,
+    missed: list[tuple[_HalfAxis, npt.NDArray[np.float64], bool]],
+    resolution: tuple[float, float],
+) -> None:
+    """Second round for brackets that did not confirm: the flip lies beyond (``ahead``) or
+    before the confirmed bracket, usually within a few resolutions (the boundary curves
+    between the grid lines). Probe at 0.9, 1.8, 3.6, ... resolutions from the bracket's side
+    in one batch; the first probe that changes outcome closes a bracket (``_bisect_all``
+    narrows it). A half-axis whose flip lies further keeps ``hi = inf`` (the full search)."""
+    tries = []
+    for h, offsets, ahead in missed:
+        steps = GALLOP_FIRST * resolution[h.axis] * 2.0 ** np.arange(GALLOP_PROBES)
+        probes = offsets[1] + steps if ahead else offsets[0] - steps
+        tries.append((h, probes[probes > 0.0]))
+    for (h, probes), codes, (_, offsets, ahead) in zip(
+        tries, _probe(atlas, x_d, theta0, tries), missed, strict=True
+    ):
+        if ahead:  # outcome q up to offsets[1]: the first probe that differs closes it
+            differ = np.flatnonzero(codes != q)
+            if differ.size:
+                j = int(differ[0])
+                h.lo = float(probes[j - 1]) if j else float(offsets[1])
+                h.hi = float(probes[j])
+        else:  # another outcome from offsets[0] on: the first probe (going back) with q
+            same = np.flatnonzero(codes == q)
+            if same.size:
+                j = int(same[0])
+                h.lo = float(probes[j])
+                h.hi = float(probes[j - 1]) if j else float(offsets[0])
 
 
 def _confirm(atlas: AcceptanceAtlas, x_d: float, theta0: float, q: int, h: _HalfAxis) -> None:

@@ -140,7 +140,8 @@ def test_with_the_grid_flips_known_a_query_takes_eight_simulations(
     atlas = build_atlas(xf.x_face(0.25, 1.0), **COARSE)
     design = atlas.design
     outcome = xf.predict(design, 0.05, 0.1, path=False).outcome
-    xf.margins_from_atlas(atlas, 0.05, 0.1, outcome)
+    for _ in range(2):  # the second query near a boundary bisects its grid lines
+        xf.margins_from_atlas(atlas, 0.05, 0.1, outcome)
     calls: list[int] = []
     counted = atlas_margins.predict_batch
 
@@ -161,14 +162,20 @@ def test_a_wrong_interpolated_flip_is_caught_by_its_confirmation(
     atlas = build_atlas(xf.x_face(0.25, 1.0), **COARSE)
     design = atlas.design
     real = atlas_margins.grid_flips
+    used: list[int] = []
 
     def shifted(*args: object, **kwargs: object) -> list[tuple[float, float]]:
-        # Every grid-line flip reported 0.01 (D or rad) too far: no bracket confirms.
-        return [(lo + 0.01, hi + 0.01) for lo, hi in real(*args, **kwargs)]  # type: ignore[arg-type]
+        # Every grid-line flip reported 0.1 (D or rad) too far: no bracket confirms, and the
+        # probes past it (up to 29 resolutions) cannot close one either.
+        found = real(*args, **kwargs)  # type: ignore[arg-type]
+        used.append(len(found))
+        return [(lo + 0.1, hi + 0.1) for lo, hi in found]
 
     monkeypatch.setattr(atlas_margins, "grid_flips", shifted)
     outcome = xf.predict(design, 0.05, 0.1, path=False).outcome
-    got = xf.margins_from_atlas(atlas, 0.05, 0.1, outcome)
+    for _ in range(2):  # the second query interpolates
+        got = xf.margins_from_atlas(atlas, 0.05, 0.1, outcome)
+    assert used
     assert _agree(got, xf.outcome_margins(design, 0.05, 0.1, outcome), design.width)
 
 
@@ -178,3 +185,18 @@ def test_confirmation_poses_split_over_threads_give_the_batch_outcomes() -> None
     xs, ts = rng.uniform(-1.0, 1.0, 9), rng.uniform(-1.0, 1.0, 9)
     split = atlas_margins._outcomes_split(atlas, xs, ts)
     assert np.array_equal(split, xf.predict_batch(atlas.design, xs, ts).outcome)
+
+
+def test_a_one_off_query_does_not_bisect_grid_lines(monkeypatch: pytest.MonkeyPatch) -> None:
+    # A planner's single question: searching its own line is cheaper than bisecting the two
+    # grid lines either side, which only pays when another query comes by.
+    atlas = build_atlas(xf.x_face(0.25, 1.0), **COARSE)
+    design = atlas.design
+
+    def no_grid_flips(*args: object, **kwargs: object) -> None:
+        raise AssertionError("bisected grid lines for a one-off query")
+
+    monkeypatch.setattr(atlas_margins, "grid_flips", no_grid_flips)
+    outcome = xf.predict(design, 0.05, 0.1, path=False).outcome
+    got = xf.margins_from_atlas(atlas, 0.05, 0.1, outcome)
+    assert _agree(got, xf.outcome_margins(design, 0.05, 0.1, outcome), design.width)
