@@ -34,6 +34,7 @@ from .margins import (
     LATERAL_STEP,
     flip_distance,
     outcome_margins,
+    reach_margins,
 )
 from .outcome import Outcome
 from .result import Margins
@@ -420,6 +421,9 @@ def margins_from_atlas(
     # clear of the base at every angle (runner.clear_start_height) only translates further to
     # the same first contact, so its neighbours' outcomes are the atlas's; a lower start is
     # searched exactly at its own height.
+    known = reach_margins(design, x0, theta0, outcome)
+    if known is not None:
+        return known
     low_start = y_start is not None and y_start / design.width < clear_start_height(design)
     if low_start or not bool(atlas.covers(x_d, theta0)):
         return outcome_margins(design, x0, theta0, outcome, physics=physics, y_start=y_start)

@@ -12,7 +12,7 @@ from .physics import Physics, SolverSettings
 from .result import Margins
 from .runner import predict_batch
 
-__all__ = ["flip_distance", "outcome_margins"]
+__all__ = ["flip_distance", "outcome_margins", "reach_margins"]
 
 #: Coarse scan steps before bisection: D/40 laterally, pi/160 in angle.
 LATERAL_STEP = 1.0 / 40.0
@@ -78,6 +78,27 @@ def flip_distance(
     return hi * scale
 
 
+def reach_margins(design: FaceDesign, x0: float, theta0: float, outcome: Outcome) -> Margins | None:
+    """The margins of an OUT_OF_REACH pose without a simulation, else None.
+
+    Beyond the mated distance (|x0| > L) every pose ends OUT_OF_REACH whatever its angle and
+    start, and at |x0| = L none does (the engine's first test): the nearest flip lies at
+    |x0| - L towards the middle, nowhere outwards or in angle. What the exact scan would
+    find, within its resolution, with no simulation. Only for |theta0| <= pi: beyond, the
+    angle search reaches the engine's |theta0| <= 2 pi limit, where poses are refused.
+    """
+    length = design.mated_distance * design.width
+    if outcome != Outcome.OUT_OF_REACH or not abs(theta0) <= math.pi or not abs(x0) > length:
+        return None
+    inward = abs(x0) - length
+    if inward > 2.0 * length:  # beyond the lateral search range
+        inward = math.inf
+    minus, plus = (inward, math.inf) if x0 > 0.0 else (math.inf, inward)
+    return Margins(
+        lateral_minus=minus, lateral_plus=plus, angle_minus=math.inf, angle_plus=math.inf
+    )
+
+
 def outcome_margins(
     design: FaceDesign,
     x0: float,
@@ -114,6 +135,9 @@ def outcome_margins(
     phys = Physics.resolve(
         physics, damping_ratio=damping_ratio, friction=friction, settings=settings
     )
+    known = reach_margins(design, x0, theta0, outcome)
+    if known is not None:
+        return known
     lateral_limit = 2.0 * design.mated_distance
     lat = [
         flip_distance(

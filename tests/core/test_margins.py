@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import math
+
+import pytest
+
 import xface_core as xf
 from xface_core.margins import ANGLE_RESOLUTION, LATERAL_RESOLUTION
 
@@ -52,3 +56,40 @@ def test_batch_start_height_matches_predict() -> None:
         single = xf.predict(design, 0.1, 0.05, y_start=y, path=False).outcome
         batch = xf.predict_batch(design, [0.1], [0.05], y_start=y).outcome[0]
         assert batch == single
+
+
+@pytest.mark.parametrize(("x0", "theta0"), [(2.6, 0.3), (-3.1, -1.2), (9.0, 0.0)])
+def test_out_of_reach_margins_are_what_the_scan_finds(x0: float, theta0: float) -> None:
+    # Beyond L every pose ends OUT_OF_REACH: the margins need no simulation, and equal the
+    # exact scan's (run here without the shortcut) within its resolution.
+    from xface_core.margins import ANGLE_STEP, LATERAL_STEP, flip_distance, reach_margins
+
+    design = xf.x_face(0.25, 1.0, width=0.05)
+    x = x0 * design.width
+    outcome = xf.predict(design, x, theta0).outcome
+    assert outcome == xf.Outcome.OUT_OF_REACH
+    known = reach_margins(design, x, theta0, outcome)
+    assert known is not None
+    limits = (2.0 * design.mated_distance, math.pi)
+    steps, res = (LATERAL_STEP, ANGLE_STEP), (1e-4, 1e-5)
+    for axis, direction, got in (
+        (0, -1.0, known.lateral_minus), (0, 1.0, known.lateral_plus),
+        (1, -1.0, known.angle_minus), (1, 1.0, known.angle_plus),
+    ):  # fmt: skip
+        scanned = flip_distance(
+            design, x, theta0, outcome, axis=axis, direction=direction, limit=limits[axis],
+            step=steps[axis], resolution=res[axis], physics=xf.Physics(),
+        )  # fmt: skip
+        if math.isinf(scanned):
+            assert math.isinf(got)
+        else:
+            scale = design.width if axis == 0 else 1.0
+            assert -1e-12 <= scanned - got <= res[axis] * scale * (1 + 1e-9)
+
+
+def test_reach_margins_leave_other_outcomes_to_the_search() -> None:
+    from xface_core.margins import reach_margins
+
+    design = xf.x_face(0.25, 1.0)
+    assert reach_margins(design, 0.1, 0.0, xf.Outcome.SEATED) is None
+    assert reach_margins(design, 3.0, 4.0, xf.Outcome.OUT_OF_REACH) is None  # |theta0| > pi
