@@ -24,7 +24,7 @@ if TYPE_CHECKING:
 
 __all__ = ["AtlasKeeper"]
 
-Builder = Callable[[FaceDesign, Physics], AcceptanceAtlas]
+Builder = Callable[[FaceDesign, Physics, str], AcceptanceAtlas]
 
 
 def _key(config: NodeConfig) -> Hashable:
@@ -42,7 +42,7 @@ class AtlasKeeper:
 
     def __init__(self, logger: Logger, *, build: Builder | None = None) -> None:
         self._logger = logger
-        self._build = build or (lambda design, physics: build_atlas(design, physics=physics))
+        self._build = build or self._build_or_load
         self._lock = threading.Lock()
         self._wanted: Hashable | None = None
         self._atlas: AcceptanceAtlas | None = None
@@ -70,6 +70,19 @@ class AtlasKeeper:
         thread.start()
         return None
 
+    def _build_or_load(
+        self, design: FaceDesign, physics: Physics, cache_dir: str
+    ) -> AcceptanceAtlas:
+        """Build the atlas, or load it from ``cache_dir`` (empty: no cache). A cache that
+        cannot be written costs the next start its build, not this one its atlas."""
+        if not cache_dir:
+            return build_atlas(design, physics=physics)
+        try:
+            return build_atlas(design, physics=physics, cache_dir=cache_dir)
+        except OSError as exc:
+            self._logger.warning(f"atlas cache {cache_dir!r} not usable, atlas not kept: {exc}")
+            return build_atlas(design, physics=physics)
+
     def join(self, timeout_s: float = 60.0) -> None:
         """Wait for the builds started so far (tests, shutdown)."""
         for thread in self._threads:
@@ -77,7 +90,7 @@ class AtlasKeeper:
 
     def _run(self, key: Hashable, config: NodeConfig) -> None:
         try:
-            atlas = self._build(config.design, config.physics)
+            atlas = self._build(config.design, config.physics, config.atlas_cache_dir)
         except Exception as exc:  # margins fall back to the exact search: never fatal
             with self._lock:
                 if key == self._wanted:

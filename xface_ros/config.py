@@ -170,6 +170,15 @@ SPECS: tuple[ParamSpec, ...] = (
         read_only=True,
     ),
     ParamSpec(
+        "atlas_cache_dir",
+        "",
+        "Directory where the node keeps its acceptance atlases (atlas-<key>.npz, keyed by "
+        "design geometry and physics), so a restart loads rather than rebuilds one; a "
+        "leading ~ is expanded; empty = rebuild at every start.",
+        constraints="empty, or a directory that exists or can be created (not a file)",
+        read_only=True,
+    ),
+    ParamSpec(
         "record",
         False,
         "Write a rerun recording (.rrd) of every streamed prediction; finished on shutdown.",
@@ -226,6 +235,7 @@ class NodeConfig:
     max_distance_widths: float
     max_path_poses: int
     diagnostics_period_s: float
+    atlas_cache_dir: str
     record: bool
     record_path: str
     record_url: str
@@ -349,6 +359,13 @@ def _record_path(value: Any) -> str:
     return path
 
 
+def _atlas_cache_dir(value: Any) -> str:
+    path = str(value)
+    if path and Path(path).expanduser().exists() and not Path(path).expanduser().is_dir():
+        raise ConfigError(f"atlas_cache_dir {path!r} is a file, not a directory")
+    return path
+
+
 def config_from_values(values: Mapping[str, Any]) -> NodeConfig:
     """Validate a full set of parameter values and build the design and the physics.
 
@@ -378,6 +395,7 @@ def config_from_values(values: Mapping[str, Any]) -> NodeConfig:
         max_distance_widths=float(values["max_distance_widths"]),
         max_path_poses=int(values["max_path_poses"]),
         diagnostics_period_s=float(values["diagnostics_period_s"]),
+        atlas_cache_dir=_atlas_cache_dir(values["atlas_cache_dir"]),
         record=bool(values["record"]),
         record_path=record_path,
         record_url=str(values["record_url"]),

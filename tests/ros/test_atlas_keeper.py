@@ -12,7 +12,7 @@ import pytest
 
 import xface_core as xf
 from xface_ros.atlas_keeper import AtlasKeeper
-from xface_ros.config import SPECS, NodeConfig, config_from_values
+from xface_ros.config import SPECS, ConfigError, NodeConfig, config_from_values
 from xface_ros.decision import PoseInput, evaluate_streamed
 
 NOW_NS = 1_700_000_000_000_000_000
@@ -33,7 +33,7 @@ def config() -> NodeConfig:
     return config_from_values({spec.name: spec.default for spec in SPECS})
 
 
-def _coarse(design: xf.FaceDesign, physics: xf.Physics) -> xf.AcceptanceAtlas:
+def _coarse(design: xf.FaceDesign, physics: xf.Physics, cache_dir: str = "") -> xf.AcceptanceAtlas:
     return xf.build_atlas(design, physics=physics, lateral_step=1 / 16, angle_step=0.05)
 
 
@@ -63,7 +63,7 @@ def test_a_design_change_starts_a_new_build_and_drops_the_old_atlas(config: Node
 def test_a_build_finished_for_an_older_design_is_not_used(config: NodeConfig) -> None:
     release = threading.Event()
 
-    def slow(design: xf.FaceDesign, physics: xf.Physics) -> xf.AcceptanceAtlas:
+    def slow(design: xf.FaceDesign, physics: xf.Physics, cache_dir: str) -> xf.AcceptanceAtlas:
         release.wait(30.0)
         return _coarse(design, physics)
 
@@ -79,7 +79,7 @@ def test_a_build_finished_for_an_older_design_is_not_used(config: NodeConfig) ->
 
 
 def test_a_failed_build_is_logged_and_margins_stay_exact(config: NodeConfig) -> None:
-    def broken(design: xf.FaceDesign, physics: xf.Physics) -> xf.AcceptanceAtlas:
+    def broken(design: xf.FaceDesign, physics: xf.Physics, cache_dir: str) -> xf.AcceptanceAtlas:
         raise MemoryError("no room")
 
     log = Log()
@@ -105,6 +105,47 @@ def test_streamed_margins_from_the_atlas_equal_the_exact_ones(config: NodeConfig
     assert em is not None
     assert fm.angle_minus == pytest.approx(em.angle_minus, abs=1e-5)
     assert fm.lateral_plus == pytest.approx(em.lateral_plus, abs=1e-4 * config.width_m)
+
+
+def test_with_a_cache_dir_a_restart_loads_the_atlas_instead_of_building_it(
+    config: NodeConfig, tmp_path: Any
+) -> None:
+    cached = replace(config, atlas_cache_dir=str(tmp_path / "atlases"))
+    first = AtlasKeeper(Log())
+    first.get(cached)
+    first.join(timeout_s=600.0)
+    built = first.get(cached)
+    assert built is not None
+    assert built.build_seconds > 0.0
+    assert [f.name for f in (tmp_path / "atlases").iterdir()] == [f"atlas-{built.key}.npz"]
+    again = AtlasKeeper(Log())  # the node restarted
+    again.get(cached)
+    again.join(timeout_s=600.0)
+    loaded = again.get(cached)
+    assert loaded is not None
+    assert loaded.build_seconds == 0.0  # read from the file
+    assert (loaded.outcomes == built.outcomes).all()
+
+
+def test_an_unwritable_cache_dir_still_gives_an_atlas_and_says_why(
+    config: NodeConfig, tmp_path: Any
+) -> None:
+    blocked = tmp_path / "blocked"
+    blocked.write_text("a file where the directory should be")
+    log = Log()
+    keeper = AtlasKeeper(log)
+    keeper.get(replace(config, atlas_cache_dir=str(blocked / "atlases")))
+    keeper.join(timeout_s=600.0)
+    assert keeper.state == "ready"
+    assert any("not usable" in line for line in log.lines)
+
+
+def test_a_cache_dir_that_is_a_file_is_refused(tmp_path: Any) -> None:
+    target = tmp_path / "f"
+    target.write_text("")
+    values = {spec.name: spec.default for spec in SPECS} | {"atlas_cache_dir": str(target)}
+    with pytest.raises(ConfigError, match="atlas_cache_dir"):
+        config_from_values(values)
 
 
 # --- poses with a covariance (relative_pose_with_covariance) --------------------------------

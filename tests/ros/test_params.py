@@ -53,9 +53,11 @@ def test_every_parameter_has_a_description_and_numbers_have_a_range() -> None:
             assert len(desc.integer_range) == 1, spec.name
 
 
-def test_recording_and_diagnostics_period_are_read_only() -> None:
+def test_recording_diagnostics_period_and_atlas_cache_are_read_only() -> None:
     read_only = {spec.name for spec in SPECS if descriptor(spec).read_only}
-    assert read_only == {"record", "record_path", "record_url", "diagnostics_period_s"}
+    assert read_only == {
+        "record", "record_path", "record_url", "diagnostics_period_s", "atlas_cache_dir"
+    }  # fmt: skip
 
 
 def test_params_file_repeats_the_built_in_defaults() -> None:
