@@ -228,6 +228,9 @@ def scratch_copy(dest: Path) -> Path:
 
 def _environment(scratch: Path, domain_id: int) -> dict[str, str]:
     env = dict(os.environ)
+    tmp = scratch.parent / "tmp"  # what the commands put in temp files (Dask's workers) too
+    tmp.mkdir(exist_ok=True)
+    env["TMPDIR"] = str(tmp)
     bin_dir = scratch / ".venv" / "bin"
     env["PATH"] = f"{bin_dir}{os.pathsep}{env.get('PATH', '')}"
     env["VIRTUAL_ENV"] = str(scratch / ".venv")
