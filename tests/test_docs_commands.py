@@ -167,6 +167,11 @@ def test_directives_are_known_and_only_on_command_blocks() -> None:
             if kind not in {"skip", "background", "slow"} or b.tag not in SHELL_TAGS:
                 bad.append(f"{b.name}: {d!r}")
     assert bad == []
+    # And none astray (a blank line between it and its fence would detach it unnoticed).
+    lines = [line for path in DOCS for line in path.read_text(encoding="utf-8").splitlines()]
+    assert sum(bool(_DIRECTIVE.match(line)) for line in lines) == sum(
+        len(b.directives) for b in ALL_BLOCKS
+    )
 
 
 def test_skipped_blocks_say_why() -> None:
@@ -190,6 +195,7 @@ def test_readme_is_short_and_stays_in_the_repository() -> None:
     assert outside == []
     missing = [t for t in targets if not (ROOT / t.partition("#")[0]).exists()]
     assert missing == []
+    assert re.findall(r"https?://\S+", text) == []  # no bare or reference-style web link either
 
 
 # --- running them ----------------------------------------------------------------------------
@@ -241,7 +247,8 @@ def _environment(scratch: Path, domain_id: int) -> dict[str, str]:
     env["ROS_STATIC_PEERS"] = ""
     env["ROS_DOMAIN_ID"] = str(domain_id)
     env.pop("PYTEST_ADDOPTS", None)  # a block that runs pytest runs it as a user would
-    env.pop("MAKEFLAGS", None)
+    env.pop("MAKEFLAGS", None)  # nor `make` under `make test` (MAKEFLAGS: -k, jobs)
+    env.pop("MAKELEVEL", None)
     return env
 
 
