@@ -304,12 +304,16 @@ def _stop_on_ctrl_c(block: Block, proc: subprocess.Popen[bytes], log: Path) -> N
         if ready:
             raise BlockFailed(f"{block.name}: {ready!r} not shown in {BACKGROUND_READY_S:.0f} s")
     os.killpg(proc.pid, signal.SIGINT)  # Ctrl-C
+    _exits_0(block, proc, BACKGROUND_STOP_S, " after Ctrl-C")
+
+
+def _exits_0(block: Block, proc: subprocess.Popen[bytes], timeout: float, when: str) -> None:
     try:
-        code = proc.wait(timeout=BACKGROUND_STOP_S)
+        code = proc.wait(timeout=timeout)
     except subprocess.TimeoutExpired:
-        raise BlockFailed(f"{block.name}: running {BACKGROUND_STOP_S:.0f} s after Ctrl-C") from None
+        raise BlockFailed(f"{block.name}: still running {timeout:.0f} s{when}") from None
     if code != 0:
-        raise BlockFailed(f"{block.name}: exit {code} after Ctrl-C")
+        raise BlockFailed(f"{block.name}: exit {code}{when}")
 
 
 def run_block(block: Block, cwd: Path, env: dict[str, str], log: Path) -> None:
@@ -331,12 +335,7 @@ def run_block(block: Block, cwd: Path, env: dict[str, str], log: Path) -> None:
             if block.directive("background") is not None:
                 _stop_on_ctrl_c(block, proc, log)
                 return
-            try:
-                code = proc.wait(timeout=TIMEOUT_S)
-            except subprocess.TimeoutExpired:
-                raise BlockFailed(f"{block.name}: not done after {TIMEOUT_S:.0f} s") from None
-            if code != 0:
-                raise BlockFailed(f"{block.name}: exit {code}")
+            _exits_0(block, proc, TIMEOUT_S, " after its start")
         finally:
             _stop_group(proc)
 
