@@ -12,6 +12,8 @@ Writes to ``--out`` (default ``bench/``):
   the ablation of the skip techniques that can be switched off.
 
 Times are medians of repeats on this machine; they are benchmarks, never test assertions.
+A progress bar (steps done of all, time left) goes to stderr when it is a terminal
+(``--quiet``: never).
 """
 
 from __future__ import annotations
@@ -33,6 +35,7 @@ from .grids import theta_grid, x0_grid
 from .outcome import Outcome
 from .physics import DEFAULT_SETTINGS, Physics, SolverSettings
 from .predict import predict
+from .progressbar import ProgressBar, terminal_progress
 from .runner import predict_batch, run_flat
 from .sweep import acceptance_map, m_table
 
@@ -48,6 +51,33 @@ BENCH_DESIGNS: tuple[tuple[str, float, float], ...] = (
     ("V", 0.5, 1.0),
     ("S", 0.5, 1.0),
 )
+
+
+class _Steps:
+    """The bench's steps, counted onto a progress bar (or only counted, without one)."""
+
+    def __init__(self, bar: ProgressBar | None, total: int) -> None:
+        self.bar, self.total, self.done = bar, total, 0
+
+    def step(self) -> None:
+        self.done += 1
+        if self.bar is not None:
+            self.bar.step(self.done, self.total)
+
+    def print(self, line: str) -> None:
+        """``line`` on stdout, the bar (on the same terminal) redrawn under it."""
+        if self.bar is not None:
+            self.bar.clear()
+        print(line, flush=True)
+        if self.bar is not None:
+            self.bar.step(self.done, self.total)
+
+
+def _n_steps(n_designs: int, n_rtols: int, quick: bool) -> int:
+    """How many times :class:`_Steps` steps in one bench: a reference per design, a row per
+    setting (the default once more, without the symmetry skip), then the targets."""
+    n_targets = 1 + len(BENCH_DESIGNS) + (0 if quick else 2) + len(BENCH_DESIGNS) + 1
+    return n_designs + n_rtols + 1 + n_targets
 
 
 def _median_time(fn: Callable[[], object], repeats: int) -> float:
@@ -119,10 +149,13 @@ def _boundary_nodes(ref: _Finals, design: FaceDesign) -> npt.NDArray[np.bool_]:
 
 
 def _work_precision(
-    designs: list[FaceDesign], rtols: list[float], repeats: int
+    designs: list[FaceDesign], rtols: list[float], repeats: int, steps: _Steps
 ) -> list[dict[str, object]]:
-    refs = [_finals(d, REFERENCE_SETTINGS) for d in designs]
-    boundary = [_boundary_nodes(r, d) for r, d in zip(refs, designs, strict=True)]
+    refs, boundary = [], []
+    for d in designs:
+        refs.append(_finals(d, REFERENCE_SETTINGS))
+        boundary.append(_boundary_nodes(refs[-1], d))
+        steps.step()
     rows: list[dict[str, object]] = []
     for rtol in rtols:
         for symmetry in (True, False):
@@ -176,12 +209,12 @@ def _work_precision(
                     "sum_abs_dM": dm,
                 }
             )
-            print(
+            steps.step()
+            steps.print(
                 f"rtol={rtol:.0e} sym={symmetry!s:5} {t_map * 1e3:8.1f} ms/map  "
                 f"state err {max(err_state):.1e} (p99 {max(err_p99):.1e})  "
                 f"event err {max(err_event):.1e}  "
-                f"overlap {max(pen):.1e} D^2  mismatches {mism_nb} (+{mism_b} on boundaries)",
-                flush=True,
+                f"overlap {max(pen):.1e} D^2  mismatches {mism_nb} (+{mism_b} on boundaries)"
             )
     return rows
 
@@ -199,7 +232,7 @@ def _write_table(rows: list[dict[str, object]], out: Path) -> None:
             fh.write("| " + " | ".join(cells) + " |\n")
 
 
-def _targets(quick: bool, repeats: int) -> list[str]:
+def _targets(quick: bool, repeats: int, steps: _Steps) -> list[str]:
     design = make_face("X", 0.25, 2.0)
     predict(design, 0.3, 0.2)  # compile / load the kernel
     lines = ["| target | measured (median) | goal |", "|---|---|---|"]
@@ -211,6 +244,7 @@ def _targets(quick: bool, repeats: int) -> list[str]:
     lines.append(f"| the same without the path | {t_nopath * 1e6:.0f} us | |")
     t_marg = _median_time(lambda: predict(design, 0.3, 0.2, margins=True), max(5, repeats))
     lines.append(f"| the same with margins (4 flip searches) | {t_marg * 1e3:.1f} ms | |")
+    steps.step()
     maps = {}
     for face, h, rp in BENCH_DESIGNS:
         d = make_face(face, h, rp)
@@ -218,6 +252,7 @@ def _targets(quick: bool, repeats: int) -> list[str]:
             _median_time(partial(acceptance_map, d), repeats),
             _median_time(partial(acceptance_map, d, use_symmetry=False), repeats),
         )
+        steps.step()
     for (face, h, rp), (t_sym, t_full) in maps.items():
         lines.append(
             f"| 41 x 41 map, {face} H/D {h:g} r_p {rp:g} (symmetry skip on / off) | "
@@ -231,11 +266,13 @@ def _targets(quick: bool, repeats: int) -> list[str]:
             "| all three 11 x 11 tables, 2 workers (one run) | "
             f"{time.perf_counter() - t0:.1f} s | <= 10 s |"
         )
+        steps.step()
         t0 = time.perf_counter()
         m_table("S", workers=1)
         lines.append(
             f"| the S table alone, 1 worker (one run) | {time.perf_counter() - t0:.1f} s | |"
         )
+        steps.step()
     for face, h, rp in BENCH_DESIGNS:
         d = make_face(face, h, rp)
         full = acceptance_map(d, grid=81)
@@ -247,6 +284,7 @@ def _targets(quick: bool, repeats: int) -> list[str]:
             f"| 81 x 81 map, {face} H/D {h:g} r_p {rp:g}: exact / refined from 41 x 41 "
             f"({wrong} of 6561 nodes differ) | {t_full * 1e3:.0f} / {t_ref * 1e3:.0f} ms | |"
         )
+        steps.step()
 
     def uncached() -> None:
         clear_cache()
@@ -257,6 +295,7 @@ def _targets(quick: bool, repeats: int) -> list[str]:
         "| one prediction without the per-design cache (pair table rebuilt) | "
         f"{t_unc * 1e6:.0f} us | |"
     )
+    steps.step()
     return lines
 
 
@@ -278,12 +317,15 @@ def run_bench(args: argparse.Namespace) -> int:
     )
     if DEFAULT_SETTINGS.rtol not in rtols:
         rtols.append(DEFAULT_SETTINGS.rtol)
-    rows = _work_precision(designs, sorted(rtols, reverse=True), repeats)
-    _write_table(rows, out)
     from .viz.benchplot import plot_work_precision  # matplotlib, from the viz extra
 
-    plot_work_precision(rows, out)
-    lines = _targets(quick, repeats)
+    total = _n_steps(len(designs), len(rtols), quick)
+    with terminal_progress(args.quiet, partial(ProgressBar, label="bench", unit="steps")) as bar:
+        steps = _Steps(bar, total)
+        rows = _work_precision(designs, sorted(rtols, reverse=True), repeats, steps)
+        _write_table(rows, out)
+        plot_work_precision(rows, out)
+        lines = _targets(quick, repeats, steps)
     (out / "targets.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
     clean = [r for r in rows if r["symmetry"] and r["mismatch_other"] == 0]

@@ -782,6 +782,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("bench", help="work-precision benchmark and stress summary")
     p.add_argument("--out", default="bench", help="output folder for the table and plot")
     p.add_argument("--quick", action="store_true", help="fewer designs and settings")
+    p.add_argument("--quiet", action="store_true", help="no progress bar on stderr")
     p.set_defaults(func=_cmd_bench)
     return parser
 

@@ -1,5 +1,5 @@
 """One-line progress bars on a terminal for the ``xface`` commands (tables, large maps,
-studies): off with ``--quiet`` or when stderr is not a terminal."""
+studies, the bench): off with ``--quiet`` or when stderr is not a terminal."""
 
 from __future__ import annotations
 
@@ -20,6 +20,7 @@ class ProgressBar:
         self.stream, self.label, self.unit = stream, label, unit
         self.started = time.monotonic()
         self.shown = False
+        self._width = 0  # characters of the line drawn last
 
     def draw(self, done: int, total: int, elapsed: float, note: str = "") -> None:
         """Redraw at ``done`` of ``total`` after ``elapsed`` seconds; ``note`` follows the
@@ -27,12 +28,22 @@ class ProgressBar:
         width = 30
         filled = width if total == 0 else width * done // total
         eta = f", about {elapsed / done * (total - done):.0f} s left" if done else ""
-        self.stream.write(
-            f"\r{self.label} [{'#' * filled}{'.' * (width - filled)}] {done}/{total} "
+        line = (
+            f"{self.label} [{'#' * filled}{'.' * (width - filled)}] {done}/{total} "
             f"{self.unit}{note}, {elapsed:.0f} s{eta} "
         )
+        self.stream.write(f"\r{line}")
         self.stream.flush()
         self.shown = True
+        self._width = len(line)
+
+    def clear(self) -> None:
+        """Blank the line drawn last, so a line printed next on the same terminal (stdout)
+        does not run on after the bar; the next :meth:`draw` brings the bar back."""
+        if self._width:
+            self.stream.write(f"\r{' ' * self._width}\r")
+            self.stream.flush()
+            self._width = 0
 
     def step(self, done: int, total: int) -> None:
         """:meth:`draw` timed from the bar's creation: a ``progress(done, total)`` callback."""

@@ -3,6 +3,7 @@ line and exit code 2 (issue 14's list), and quiet on a closed pipe."""
 
 from __future__ import annotations
 
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -118,4 +119,42 @@ def test_a_table_shows_a_progress_bar_on_a_terminal(
 
 def test_no_progress_bar_when_stderr_is_not_a_terminal(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["map", "--grid", "201", "--json"]) == 0
+    assert capsys.readouterr().err == ""
+
+
+def _small_bench(monkeypatch: pytest.MonkeyPatch) -> None:
+    """``xface bench --quick`` on one design, each time taken once: the same steps, fewer."""
+    import xface_core.bench as bench
+
+    monkeypatch.setattr(bench, "BENCH_DESIGNS", bench.BENCH_DESIGNS[:1])
+    monkeypatch.setattr(bench, "_median_time", lambda fn, repeats: bench.time.perf_counter())
+
+
+@pytest.mark.slow
+def test_the_bench_shows_a_progress_bar_on_a_terminal(
+    capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    _small_bench(monkeypatch)
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: True)
+    assert main(["bench", "--quick", "--out", str(tmp_path / "bench")]) == 0
+    out, err = capsys.readouterr()
+    assert "rtol=" in out
+    assert "wrote " in out
+    counts = [(int(a), int(b)) for a, b in re.findall(r"bench \[[#.]+\] (\d+)/(\d+) steps", err)]
+    assert counts, err
+    total = counts[-1][1]
+    # Every step drawn, in order, and the last one is the whole bench.
+    assert sorted({done for done, _ in counts}) == list(range(1, total + 1))
+    assert {t for _, t in counts} == {total}
+
+
+@pytest.mark.slow
+def test_the_bench_is_quiet_with_quiet_or_off_a_terminal(
+    capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    _small_bench(monkeypatch)
+    assert main(["bench", "--quick", "--out", str(tmp_path / "a")]) == 0
+    assert capsys.readouterr().err == ""
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: True)
+    assert main(["bench", "--quick", "--quiet", "--out", str(tmp_path / "b")]) == 0
     assert capsys.readouterr().err == ""
