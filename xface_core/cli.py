@@ -41,7 +41,7 @@ from .sweep import AcceptanceMap, MTable, Progress, acceptance_map, m_table
 __all__ = ["main"]
 
 #: What to install for the options that record or draw.
-_VIZ_HINT = "pip install 'xface[viz]'"
+_VIZ_HINT = "pip install '.[viz]' in the xface checkout"
 
 #: Options that record or draw: (argument name, option, the module of xface_core.viz it needs).
 _VIZ_OPTIONS = (
@@ -52,7 +52,7 @@ _VIZ_OPTIONS = (
 
 
 #: What to install for ``xface crosscheck``.
-_CROSSCHECK_HINT = "pip install 'xface[crosscheck]'"
+_CROSSCHECK_HINT = "pip install '.[crosscheck]' in the xface checkout"
 
 
 class _VizMissing(Exception):

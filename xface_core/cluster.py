@@ -13,7 +13,7 @@ from .errors import XfaceError, XfaceValueError
 __all__ = ["CLUSTER_HINT", "ClusterMissing", "connect"]
 
 #: What to install for ``--scheduler``.
-CLUSTER_HINT = "pip install 'xface[cluster]'"
+CLUSTER_HINT = "pip install '.[cluster]' in the xface checkout"
 
 #: Seconds to wait for the scheduler before giving up.
 CONNECT_TIMEOUT_S = 10.0

@@ -62,7 +62,7 @@ _META_KEY = b"xface.study"
 FOLD_EVERY = 500
 
 #: What to install for studies.
-STUDY_HINT = "pip install 'xface[study]'"
+STUDY_HINT = "pip install '.[study]' in the xface checkout"
 
 
 def require_pyarrow() -> None:

@@ -108,7 +108,10 @@ def test_cli_option_without_the_viz_extra_exits_2_with_one_line(
 ) -> None:
     result = run_blocked(_CLI, *argv, cwd=tmp_path)
     assert result.returncode == 2, result.stderr
-    assert result.stderr == f"xface: {option} needs the viz extra: pip install 'xface[viz]'\n"
+    assert (
+        result.stderr
+        == f"xface: {option} needs the viz extra: pip install '.[viz]' in the xface checkout\n"
+    )
     assert result.stdout == ""
     assert list(tmp_path.iterdir()) == []  # refused before simulating or writing anything
 
@@ -117,7 +120,8 @@ def test_a_sweep_without_the_study_extra_exits_2_with_one_line(tmp_path: Path) -
     result = run_blocked(_CLI, "sweep", "--grid", "5", "--out", "s.parquet", cwd=tmp_path)
     assert result.returncode == 2, result.stderr
     assert result.stderr == (
-        "xface: error: design studies need the study extra (pyarrow): pip install 'xface[study]'\n"
+        "xface: error: design studies need the study extra (pyarrow): "
+        "pip install '.[study]' in the xface checkout\n"
     )
     assert list(tmp_path.iterdir()) == []
 
@@ -127,6 +131,7 @@ def test_a_scheduler_without_the_cluster_extra_exits_2_with_one_line(tmp_path: P
     result = run_blocked(_CLI, *argv, cwd=tmp_path)
     assert result.returncode == 2, result.stderr
     assert result.stderr == (
-        "xface: error: --scheduler needs the cluster extra: pip install 'xface[cluster]'\n"
+        "xface: error: --scheduler needs the cluster extra: "
+        "pip install '.[cluster]' in the xface checkout\n"
     )
     assert list(tmp_path.iterdir()) == []

@@ -1,6 +1,7 @@
 """An independent cross-check of xface in Chipmunk2D (pymunk): the ``crosscheck`` extra.
 
-``pip install 'xface[crosscheck]'``; ``import xface_core`` never imports this package.
+``pip install '.[crosscheck]'`` in the xface checkout; ``import xface_core`` never imports
+this package.
 :func:`crosscheck` runs xface and the engine on the same cells and reports agreement,
 ambiguous cells and every disagreement; :func:`run_cell` is one engine run.
 See ``docs/crosscheck.md``.

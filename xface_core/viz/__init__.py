@@ -1,6 +1,7 @@
 """Presentation of the simulator's results: rerun recordings and pictures (the ``viz`` extra).
 
-``pip install 'xface[viz]'`` adds rerun-sdk, matplotlib and pillow; the simulator needs none.
+``pip install '.[viz]'`` in the xface checkout adds rerun-sdk, matplotlib and pillow; the
+simulator needs none.
 Importing this package imports nothing heavy: import the module you need.
 
 - :mod:`xface_core.viz.recording`: rerun recordings (``.rrd``) of predictions and

@@ -1,8 +1,8 @@
 """Rerun recordings of predictions and acceptance maps, for review in the rerun viewer.
 
 This is the only module of :mod:`xface_core` that imports rerun (``rerun-sdk`` 0.41, from the
-``viz`` extra: ``pip install 'xface[viz]'``); nothing imports it eagerly, so the simulator
-runs without it. Everything goes through an explicit
+``viz`` extra: ``pip install '.[viz]'`` in the xface checkout); nothing imports it eagerly,
+so the simulator runs without it. Everything goes through an explicit
 :class:`rerun.RecordingStream` made by :func:`new_recording`: no global or thread-local
 rerun state is read or changed.
 

@@ -74,6 +74,7 @@ def test_without_the_extra_it_says_what_to_install(tmp_path: Path) -> None:
     )
     assert result.returncode == 2, result.stderr
     assert result.stderr == (
-        "xface: crosscheck needs the crosscheck extra: pip install 'xface[crosscheck]'\n"
+        "xface: crosscheck needs the crosscheck extra: "
+        "pip install '.[crosscheck]' in the xface checkout\n"
     )
     assert result.stdout == ""
