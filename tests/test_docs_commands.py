@@ -1,7 +1,10 @@
 """Every command block of README.md and docs/*.md runs as written (issue 14).
 
 A fenced block tagged ``sh`` or ``bash`` is a command block: what a user pastes into a shell
-after the documented set-up (the virtualenv of ``make setup``, activated). Each one runs on its
+after the documented set-up (the virtualenv of ``make setup``, activated). A block tagged
+``python`` is what a user pastes into Python in that virtualenv; the Python blocks of one file
+build on each other (the second uses the first's names), so each runs after its file's earlier
+Python blocks, as one script. Each one runs on its
 own, in a fresh scratch copy of the repository, and must exit 0. The convention for what the
 blocks cannot say themselves (docs/development.md) is an HTML comment on the lines right
 before the block's opening fence:
@@ -11,7 +14,9 @@ before the block's opening fence:
 * ``<!-- docs-test: background -->`` or ``<!-- docs-test: background: TEXT -->``: the block is
   one long-running command (the node): it must still run after ``BACKGROUND_S`` seconds, or
   once its output shows TEXT, and then exit 0 on Ctrl-C (SIGINT);
-* ``<!-- docs-test: slow -->``: the block takes long; its test is marked ``slow``.
+* ``<!-- docs-test: slow -->``: the block takes long; its test is marked ``slow``;
+* ``<!-- docs-test: excerpt: PATH -->`` (Python blocks): the block quotes the source file PATH
+  (lines of it, dedented) rather than being a script: it must still be there, word for word.
 
 Every other fence needs a tag (``text`` for syntax, output and drawings), so no command hides
 in an untagged block. Commands run with ``bash -e -o pipefail`` in a scratch directory that
@@ -33,6 +38,7 @@ import shutil
 import signal
 import subprocess
 import sys
+import textwrap
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -111,6 +117,15 @@ def fenced_blocks(path: Path) -> list[Block]:
 ALL_BLOCKS = [b for path in DOCS for b in fenced_blocks(path)]
 COMMAND_BLOCKS = [b for b in ALL_BLOCKS if b.tag in SHELL_TAGS]
 RUN_BLOCKS = [b for b in COMMAND_BLOCKS if b.directive("skip") is None]
+PYTHON_BLOCKS = [b for b in ALL_BLOCKS if b.tag == "python"]
+EXCERPTS = [b for b in PYTHON_BLOCKS if b.directive("excerpt") is not None]
+RUN_PYTHON = [b for b in PYTHON_BLOCKS if b.directive("skip") is None and b not in EXCERPTS]
+
+
+def as_script(block: Block) -> str:
+    """``block`` after the earlier Python blocks of its file that run: one script."""
+    earlier = [b for b in RUN_PYTHON if b.path == block.path and b.line <= block.line]
+    return "".join(b.text for b in earlier)
 
 
 def _params(blocks: list[Block]) -> list[object]:
@@ -159,12 +174,14 @@ def test_every_fence_is_tagged() -> None:
     assert bad == []
 
 
-def test_directives_are_known_and_only_on_command_blocks() -> None:
+def test_directives_are_known_and_only_on_blocks_that_run() -> None:
     bad = []
     for b in ALL_BLOCKS:
         for d in b.directives:
             kind = d.partition(":")[0].strip()
-            if kind not in {"skip", "background", "slow"} or b.tag not in SHELL_TAGS:
+            python_kinds = {"skip", "slow", "excerpt"}
+            allowed = {"skip", "background", "slow"} if b.tag in SHELL_TAGS else python_kinds
+            if kind not in allowed or b.tag not in SHELL_TAGS | {"python"}:
                 bad.append(f"{b.name}: {d!r}")
     assert bad == []
     # And none astray (a blank line between it and its fence would detach it unnoticed).
@@ -176,7 +193,9 @@ def test_directives_are_known_and_only_on_command_blocks() -> None:
 
 def test_skipped_blocks_say_why() -> None:
     skipped = {
-        b.name: b.directive("skip") for b in COMMAND_BLOCKS if b.directive("skip") is not None
+        b.name: b.directive("skip")
+        for b in COMMAND_BLOCKS + PYTHON_BLOCKS
+        if b.directive("skip") is not None
     }
     print("\nskipped command blocks:")
     for name, reason in skipped.items():
@@ -353,6 +372,35 @@ def test_command_block_runs_as_written(block: Block, tmp_path: Path, ros_domain_
     print(_tail(log))  # shown with -s or -rP: what the block printed
 
 
+@pytest.mark.parametrize("block", _params(RUN_PYTHON))
+def test_python_block_runs_as_written(block: Block, tmp_path: Path, ros_domain_id: int) -> None:
+    scratch = scratch_copy(tmp_path / "repo")
+    (scratch / "block.py").write_text(as_script(block), encoding="utf-8")
+    log = tmp_path / "output.txt"
+    script = _made_up("python block.py\n")
+    try:
+        run_block(script, scratch, _environment(scratch, ros_domain_id), log)
+    except BlockFailed as exc:
+        pytest.fail(f"{exc}\n--- the script:\n{as_script(block)}--- its output:\n{_tail(log)}")
+
+
+def quoted_in(block: Block, source: Path) -> bool:
+    """Whether ``block``'s lines are consecutive lines of ``source``, up to indentation."""
+    want = block.text.rstrip("\n")
+    lines = source.read_text(encoding="utf-8").splitlines()
+    n = len(want.splitlines())
+    return any(
+        textwrap.dedent("\n".join(lines[i : i + n])) == want for i in range(len(lines) - n + 1)
+    )
+
+
+@pytest.mark.parametrize("block", [pytest.param(b, id=b.name) for b in EXCERPTS])
+def test_a_quoted_excerpt_is_still_in_its_source(block: Block) -> None:
+    source = ROOT / (block.directive("excerpt") or "")
+    assert source.is_file(), f"{block.name}: no file {source}"
+    assert quoted_in(block, source), f"{block.name} no longer matches {source}"
+
+
 # --- the runner itself, on blocks made up here -------------------------------------------------
 
 
@@ -398,3 +446,12 @@ def test_what_a_block_leaves_running_is_stopped(tmp_path: Path) -> None:
     stat = Path(f"/proc/{pid}/stat")
     # Gone, or a zombie waiting for its new parent to reap it.
     assert not stat.exists() or stat.read_text().rpartition(")")[2].split()[0] == "Z"
+
+
+def test_an_excerpt_that_drifted_from_its_source_is_caught(tmp_path: Path) -> None:
+    source = tmp_path / "src.py"
+    source.write_text("def f():\n    a = 1\n    return a\n", encoding="utf-8")
+    quoted = Block(ROOT / "made-up.md", 1, "python", "a = 1\nreturn a\n", ("excerpt: src.py",))
+    drifted = Block(ROOT / "made-up.md", 1, "python", "a = 2\nreturn a\n", ("excerpt: src.py",))
+    assert quoted_in(quoted, source)
+    assert not quoted_in(drifted, source)
