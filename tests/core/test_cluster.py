@@ -1,5 +1,5 @@
-"""Studies on a Dask cluster: a LocalCluster on loopback (two worker processes, no dashboard)
-gives the same table as local processes, through the API and through ``--scheduler``."""
+"""Studies on a Dask cluster: a LocalCluster on loopback (two worker processes; its HTTP
+server, which dashboard_address=None does not turn off, on a free loopback port) gives the same table as local processes, through the API and through ``--scheduler``."""
 
 from __future__ import annotations
 
@@ -41,7 +41,8 @@ def client(local_table: Any) -> Iterator[Any]:
         threads_per_worker=1,
         processes=True,
         host="127.0.0.1",
-        dashboard_address=None,
+        # The scheduler's HTTP server starts anyway; on 8787 two runs at once collide.
+        dashboard_address="127.0.0.1:0",
     )
     c = distributed.Client(cluster)
     try:
@@ -53,6 +54,7 @@ def client(local_table: Any) -> Iterator[Any]:
 
 def test_the_cluster_listens_on_loopback_only(client: Any) -> None:
     assert client.scheduler.address.startswith("tcp://127.0.0.1:")
+    assert client.dashboard_link.startswith("http://127.0.0.1:")
     assert all(w.startswith("tcp://127.0.0.1:") for w in client.scheduler_info()["workers"])
 
 
