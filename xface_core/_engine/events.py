@@ -52,6 +52,9 @@ class Segment(NamedTuple):
     sqrt_winv_m: float
     winv_b: float
     winv_m: float
+    step_memo: FloatArray
+    """Steps already integrated in this segment (:func:`step_to`; emptied by
+    :func:`clear_step_memo` whenever a segment begins)."""
 
 
 class Step(NamedTuple):
@@ -87,10 +90,34 @@ def earlier(candidate: Event, best: Event) -> Event:
 
 
 @njit_no_refcount
+def clear_step_memo(memo: FloatArray) -> None:
+    """Forget every remembered step (a new segment: other contacts, another rate)."""
+    memo[0, 0] = 0.0  # slots filled
+    memo[0, 1] = 0.0  # the slot written next
+
+
+@njit_no_refcount
 def step_to(seg: Segment, step: Step, t: float) -> tuple[float, float, float, float, bool]:
     """One integration step of length ``t`` from the trial step's start:
-    ``(phi_b, phi_m, err_b, err_m, ok)``."""
-    return rk_step(
+    ``(phi_b, phi_m, err_b, err_m, ok)``.
+
+    Within a segment the step is a pure function of its start state and ``t``, and the event
+    scan asks for the same one many times (the trial step's end again in every root search,
+    a located event's state in the contact checks and in the advance to it): the last
+    ``STEP_MEMO_SLOTS`` are remembered in ``seg.step_memo`` (row 0: slots filled, next slot;
+    rows 1..: t, start phi_B, phi_M, y_M, then the result) and returned bit for bit.
+    """
+    memo = seg.step_memo
+    slots = memo.shape[0] - 1
+    for k in range(1, int(memo[0, 0]) + 1):
+        if (
+            memo[k, 0] == t
+            and memo[k, 1] == step.phi_b
+            and memo[k, 2] == step.phi_m
+            and memo[k, 3] == step.y_m
+        ):
+            return memo[k, 4], memo[k, 5], memo[k, 6], memo[k, 7], memo[k, 8] != 0.0
+    nb, nm, eb, em, ok = rk_step(
         seg.pairs,
         seg.act,
         seg.n_active,
@@ -106,6 +133,13 @@ def step_to(seg: Segment, step: Step, t: float) -> tuple[float, float, float, fl
         seg.mu,
         seg.slip,
     )
+    k = int(memo[0, 1]) + 1
+    memo[k, 0], memo[k, 1], memo[k, 2], memo[k, 3] = t, step.phi_b, step.phi_m, step.y_m
+    memo[k, 4], memo[k, 5], memo[k, 6], memo[k, 7] = nb, nm, eb, em
+    memo[k, 8] = 1.0 if ok else 0.0
+    memo[0, 0] = min(memo[0, 0] + 1.0, float(slots))
+    memo[0, 1] = float(k % slots)
+    return nb, nm, eb, em, ok
 
 
 @njit_no_refcount

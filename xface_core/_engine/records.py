@@ -127,6 +127,10 @@ COARSE_SAMPLES = 3
 FINE_SAMPLES = 31
 FOLD_RISE = 1e-6  # D: a located turn's fold must lie this close to the turn's height
 FOLD_REACH = 1e-3  # D: solve_fold accepts a fold only this close to its start height
+#: Integration steps from one trial step's start remembered per segment (events.step_to):
+#: the event scan asks for the same state again and again (the trial step's end in every
+#: root search, a located event's state in the contact checks and in the advance to it).
+STEP_MEMO_SLOTS = 16
 
 
 class Model(NamedTuple):
@@ -238,6 +242,8 @@ class Work(NamedTuple):
     """(4, 2) scratch of the corner test (:func:`~.pairs.corner_motion_admissible`)."""
     samples: FloatArray
     """(FINE_SAMPLES, 2) scratch: (phi_B, phi_M) at the samples inside a trial step."""
+    step_memo: FloatArray
+    """(STEP_MEMO_SLOTS + 1, 9) steps integrated in this segment (:func:`~.events.step_to`)."""
 
 
 @njit(cache=True, nogil=True)
@@ -259,4 +265,5 @@ def new_work(model: Model, opts: Options) -> Work:
         np.full(2, FREE, dtype=np.int64),
         np.zeros((4, 2)),
         np.zeros((FINE_SAMPLES, 2)),
+        np.zeros((STEP_MEMO_SLOTS + 1, 9)),
     )

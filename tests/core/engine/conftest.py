@@ -18,7 +18,7 @@ import pytest
 import xface_core as xf
 from xface_core._engine.events import Segment, Step
 from xface_core._engine.pairs import pair_at
-from xface_core._engine.records import FREE
+from xface_core._engine.records import FREE, STEP_MEMO_SLOTS
 from xface_core.contact import pair_table
 
 #: Columns of the engine's pair table; hand-built rows fill the first ten (kind, vertex, edge,
@@ -75,7 +75,7 @@ class Incline:
         slip = np.full(2, FREE, dtype=np.int64)
         return Segment(
             self.table, act, n_active, 0.0, slip, self.x0, y_floor,
-            math.sqrt(winv_b), 1.0, winv_b, 1.0,
+            math.sqrt(winv_b), 1.0, winv_b, 1.0, np.zeros((STEP_MEMO_SLOTS + 1, 9)),
         )  # fmt: skip
 
     def step(self, h: float) -> Step:
