@@ -135,6 +135,7 @@ def _contact_events(
         math.sin(step.phi_m),
     )
     crossed = False
+    rotation = -1.0  # _rotation_bound, once a pair needs it
     for i in range(pairs.shape[0]):
         row = pairs[i]
         g1, u1, _, _, _, _, _, _, _ = eval_pair(row, cb1, sb1, cm1, sm1, x0, y1)
@@ -161,6 +162,11 @@ def _contact_events(
             u_est = u_prev[i] + (u1 - u_prev[i]) * (g_prev[i] - thr[i]) / (g_prev[i] - g1)
             if u_est < -0.25 or u_est > 1.25:
                 continue
+        if rotation < 0.0:
+            rotation = _rotation_bound(seg, step, nb, nm)
+        if _far_behind(row, thr[i], (cb0, sb0, cm0, sm0, step.y_m), (cb1, sb1, cm1, sm1, y1),
+                       x0, step.h, rotation):  # fmt: skip
+            continue
         # Not crossed yet at the earliest event found so far: it cannot come first. Crossed
         # within two event widths before it: the same moment (contacts closing together,
         # as at a seat); the next interval's touching scan picks it up without a search of
@@ -202,6 +208,60 @@ def _is_contact(seg: Segment, step: Step, i: int, hk: float, thr: float) -> bool
 
 
 @njit_no_refcount
+def _rotation_bound(seg: Segment, step: Step, nb: float, nm: float) -> float:
+    """A bound (rad, both parts together) on how far the parts turn anywhere inside the
+    trial step ending at ``(nb, nm)``: twice the larger of the step's own turn and the turn
+    at the rate of either end over the whole step. An accepted step's rate changes little
+    (its error is within rtol); infinite when a rate is not finite."""
+    v0b, v0m, _, _ = segment_velocity(seg, step.phi_b, step.phi_m, step.y_m)
+    v1b, v1m, _, _ = segment_velocity(seg, nb, nm, step.y_m - step.h)
+    turn = abs(nb - step.phi_b) + abs(nm - step.phi_m)
+    rates = max(abs(v0b) + abs(v0m), abs(v1b) + abs(v1m))
+    if not math.isfinite(rates):
+        return math.inf
+    return 2.0 * max(turn, step.h * rates)
+
+
+@njit_no_refcount
+def _far_behind(
+    row: FloatArray,
+    thr: float,
+    start: tuple[float, float, float, float, float],
+    end: tuple[float, float, float, float, float],
+    x0: float,
+    h: float,
+    rotation: float,
+) -> bool:
+    """Is the pair's vertex behind its edge's line by more than CORNER_REACH below its
+    threshold all through a step of descent ``h`` (D) that turns the parts by at most
+    ``rotation`` (rad)? (``start``, ``end``: cos and sin of phi_B and phi_M, and y_M, at
+    the step's ends.)
+
+    Then no crossing of its contact function located in the step is a contact
+    (:func:`_is_contact` wants the plain gap within CORNER_REACH of the threshold), and its
+    search can be skipped with the same result. Such pairs are common: a vertex held on one
+    edge is far behind the line of the neighbouring edge, whose clipped gap is then the held
+    gap, zero to round-off, and its root search bisected that noise (some 30 steps each).
+    The gap is the vertex's distance from the line in the edge's frame, so it moves by at
+    most the vertex's travel there: the descent, its turn about its own pivot and the turn
+    of the edge's part about the edge's pivot.
+    """
+    g_max = -math.inf
+    lever = 0.0  # the vertex's distance from the edge's pivot (D)
+    for cb, sb, cm, sm, y in (start, end):
+        g, _, _, _, _, px, py, _, _ = eval_pair(row, cb, sb, cm, sm, x0, y)
+        g_max = max(g_max, g)
+        if row[0] == 0.0:
+            lever = max(lever, math.hypot(px, py))  # base edge: pivot at the origin
+        else:
+            lever = max(lever, math.hypot(px - x0, py - y))
+    arm = math.hypot(row[1], row[2])  # the vertex from its own pivot (D)
+    lever += h + arm * rotation
+    travel = h + (arm + lever) * rotation
+    return g_max + travel < thr - CORNER_REACH
+
+
+@njit_no_refcount
 def _contacts_before(opts: Options, seg: Segment, step: Step, work: Work, best: Event) -> Event:
     """A contact that came before the event found, though the trial step's end did not show
     it: a vertex that went in past a corner and out again within the step. At the event's
@@ -216,6 +276,8 @@ def _contacts_before(opts: Options, seg: Segment, step: Step, work: Work, best: 
             return best
         head = Step(step.phi_b, step.phi_m, step.y_m, best.h)
         eb, em, _, _, _ = step_to(seg, step, best.h)
+        at_event = (math.cos(eb), math.sin(eb), math.cos(em), math.sin(em), step.y_m - best.h)
+        rotation = -1.0  # _rotation_bound of the head, once a pair needs it
         earliest = best
         for i in range(pairs.shape[0]):
             if (n_act > 0 and act[0] == i) or (n_act > 1 and act[1] == i):
@@ -227,6 +289,11 @@ def _contacts_before(opts: Options, seg: Segment, step: Step, work: Work, best: 
                 clipped_gap(row, g_prev[i], cb0, sb0, cm0, sm0, x0, step.y_m) <= thr[i]
             ):
                 continue  # inside at the start already: no crossing in this step
+            if rotation < 0.0:
+                rotation = _rotation_bound(seg, head, eb, em)
+            if _far_behind(row, thr[i], (cb0, sb0, cm0, sm0, step.y_m), at_event, x0, best.h,
+                           rotation):  # fmt: skip
+                continue
             _, hk = locate(seg, head, opts.event_tol, E_CONTACT, i, 0, thr[i])
             if hk >= earliest.h:
                 continue
@@ -298,6 +365,7 @@ def _contacts_inside_step(
     y1 = step.y_m - step.h
     cb1, sb1, cm1, sm1 = math.cos(nb), math.sin(nb), math.cos(nm), math.sin(nm)
     sampled = False
+    rotation = -1.0  # _rotation_bound, once a pair needs it
     for i in range(pairs.shape[0]):
         if (n_act > 0 and act[0] == i) or (n_act > 1 and act[1] == i):
             continue
@@ -315,6 +383,11 @@ def _contacts_inside_step(
             continue  # crossed by the step's end: _contact_events' case
         if clipped_gap(row, g_prev[i], cb0, sb0, cm0, sm0, x0, step.y_m) <= thr[i]:
             continue  # inside at the start already
+        if rotation < 0.0:
+            rotation = _rotation_bound(seg, step, nb, nm)
+        if _far_behind(row, thr[i], (cb0, sb0, cm0, sm0, step.y_m), (cb1, sb1, cm1, sm1, y1),
+                       x0, step.h, rotation):  # fmt: skip
+            continue
         if not sampled:
             # The states at the samples, computed once and shared by every pair.
             for k in range(n_samples):
