@@ -135,7 +135,7 @@ def _contact_events(
         math.sin(step.phi_m),
     )
     crossed = False
-    rotation = -1.0  # _rotation_bound, once a pair needs it
+    rates = (-1.0, -1.0)  # _turn_rates, once a pair needs them
     for i in range(pairs.shape[0]):
         row = pairs[i]
         g1, u1, _, _, _, _, _, _, _ = eval_pair(row, cb1, sb1, cm1, sm1, x0, y1)
@@ -162,10 +162,9 @@ def _contact_events(
             u_est = u_prev[i] + (u1 - u_prev[i]) * (g_prev[i] - thr[i]) / (g_prev[i] - g1)
             if u_est < -0.25 or u_est > 1.25:
                 continue
-        if rotation < 0.0:
-            rotation = _rotation_bound(seg, step, nb, nm)
-        if _far_behind(row, thr[i], (cb0, sb0, cm0, sm0, step.y_m), (cb1, sb1, cm1, sm1, y1),
-                       x0, step.h, rotation):  # fmt: skip
+        if rates[0] < 0.0:
+            rates = _turn_rates(seg, step, nb, nm)
+        if _far_behind(seg, step, i, thr[i], rates):
             continue
         # Not crossed yet at the earliest event found so far: it cannot come first. Crossed
         # within two event widths before it: the same moment (contacts closing together,
@@ -208,57 +207,84 @@ def _is_contact(seg: Segment, step: Step, i: int, hk: float, thr: float) -> bool
 
 
 @njit_no_refcount
-def _rotation_bound(seg: Segment, step: Step, nb: float, nm: float) -> float:
-    """A bound (rad, both parts together) on how far the parts turn anywhere inside the
-    trial step ending at ``(nb, nm)``: twice the larger of the step's own turn and the turn
-    at the rate of either end over the whole step. An accepted step's rate changes little
-    (its error is within rtol); infinite when a rate is not finite."""
+def _turn_rates(seg: Segment, step: Step, nb: float, nm: float) -> tuple[float, float]:
+    """Bounds on how fast phi_B and phi_M turn (rad per D of descent) anywhere inside the
+    trial step ending at ``(nb, nm)``: twice the largest of the rates at its ends and its
+    mean rate. An accepted step's rate changes little (its error is within rtol); infinite
+    when a rate is not finite."""
     v0b, v0m, _, _ = segment_velocity(seg, step.phi_b, step.phi_m, step.y_m)
     v1b, v1m, _, _ = segment_velocity(seg, nb, nm, step.y_m - step.h)
-    turn = abs(nb - step.phi_b) + abs(nm - step.phi_m)
-    rates = max(abs(v0b) + abs(v0m), abs(v1b) + abs(v1m))
-    if not math.isfinite(rates):
-        return math.inf
-    return 2.0 * max(turn, step.h * rates)
+    rate_b = 2.0 * max(abs(v0b), abs(v1b), abs(nb - step.phi_b) / step.h)
+    rate_m = 2.0 * max(abs(v0m), abs(v1m), abs(nm - step.phi_m) / step.h)
+    if not math.isfinite(rate_b + rate_m):
+        return math.inf, math.inf
+    return rate_b, rate_m
 
 
 @njit_no_refcount
-def _far_behind(
-    row: FloatArray,
-    thr: float,
-    start: tuple[float, float, float, float, float],
-    end: tuple[float, float, float, float, float],
-    x0: float,
-    h: float,
-    rotation: float,
-) -> bool:
-    """Is the pair's vertex behind its edge's line by more than CORNER_REACH below its
-    threshold all through a step of descent ``h`` (D) that turns the parts by at most
-    ``rotation`` (rad)? (``start``, ``end``: cos and sin of phi_B and phi_M, and y_M, at
-    the step's ends.)
+def _gap_ceiling(
+    seg: Segment, step: Step, i: int, rates: tuple[float, float], pieces: int
+) -> tuple[float, float]:
+    """A bound (D) on pair i's plain gap anywhere in the trial step, from its values at
+    ``pieces + 1`` evenly spaced states (the step's ends and ``step_to`` in between) and
+    how fast it can change; also the largest gap at those states.
 
-    Then no crossing of its contact function located in the step is a contact
-    (:func:`_is_contact` wants the plain gap within CORNER_REACH of the threshold), and its
-    search can be skipped with the same result. Such pairs are common: a vertex held on one
-    edge is far behind the line of the neighbouring edge, whose clipped gap is then the held
-    gap, zero to round-off, and its root search bisected that noise (some 30 steps each).
-    The gap is the vertex's distance from the line in the edge's frame, so it moves by at
-    most the vertex's travel there: the descent, its turn about its own pivot and the turn
-    of the edge's part about the edge's pivot.
+    Between two states ``dt`` apart the gap g is Lipschitz in the descent: |dg/ds| <=
+    |dg/dy_M| + |dg/dphi_B| r_B + |dg/dphi_M| r_M with ``rates`` = (r_B, r_M) (rad per D,
+    :func:`_turn_rates`), |dg/dy_M| <= 1 and the angle derivatives bounded by their largest
+    value at the states plus how far they can change in ``dt`` (the vertex's travel: the
+    descent and its turn about both pivots). From both ends of a piece, g stays below
+    ``(g_a + g_b + Lip dt) / 2`` there (or the larger end value).
     """
-    g_max = -math.inf
-    lever = 0.0  # the vertex's distance from the edge's pivot (D)
-    for cb, sb, cm, sm, y in (start, end):
-        g, _, _, _, _, px, py, _, _ = eval_pair(row, cb, sb, cm, sm, x0, y)
-        g_max = max(g_max, g)
+    row, x0 = seg.pairs[i], seg.x0
+    dt = step.h / pieces
+    rate_b, rate_m = rates
+    arm = math.hypot(row[1], row[2])  # the vertex from its own pivot (D)
+    a_b, a_m, lever = 0.0, 0.0, 0.0  # largest |dg/dphi| (D/rad), vertex to edge pivot (D)
+    g_top, g_ceiling, g_last = -math.inf, -math.inf, 0.0
+    for k in range(pieces + 1):
+        pb, pm = step.phi_b, step.phi_m
+        if k > 0:
+            pb, pm, _, _, _ = step_to(seg, step, step.h if k == pieces else k * dt)
+        y = step.y_m - (step.h if k == pieces else k * dt)
+        g, _, ab, am, _, px, py, _, _ = pair_at(seg.pairs, i, pb, pm, x0, y)
+        a_b, a_m = max(a_b, abs(ab)), max(a_m, abs(am))
         if row[0] == 0.0:
             lever = max(lever, math.hypot(px, py))  # base edge: pivot at the origin
         else:
             lever = max(lever, math.hypot(px - x0, py - y))
-    arm = math.hypot(row[1], row[2])  # the vertex from its own pivot (D)
-    lever += h + arm * rotation
-    travel = h + (arm + lever) * rotation
-    return g_max + travel < thr - CORNER_REACH
+        g_top = max(g_top, g)
+        if k > 0:
+            g_ceiling = max(g_ceiling, 0.5 * (g_last + g))  # the Lipschitz part added below
+        g_last = g
+    turn = (rate_b + rate_m) * dt
+    lever += dt + arm * turn
+    change = dt + (arm + lever) * turn  # how far either derivative can move in a piece
+    lip = 1.0 + (a_b + change) * rate_b + (a_m + change) * rate_m
+    return max(g_top, g_ceiling + 0.5 * lip * dt), g_top
+
+
+@njit_no_refcount
+def _far_behind(seg: Segment, step: Step, i: int, thr: float, rates: tuple[float, float]) -> bool:
+    """Is pair i's vertex behind its edge's line by more than CORNER_REACH below its
+    threshold all through the trial step (its parts turning at most at ``rates``)?
+
+    Then no crossing of its contact function located in the step is a contact
+    (:func:`_is_contact` wants the plain gap within CORNER_REACH of the threshold), and its
+    search can be skipped with the same result. Such pairs are common: a vertex held on one
+    edge is behind the line of the neighbouring edge, whose clipped gap is then the held
+    gap, zero to round-off, and its root search bisected that noise (some 30 steps each).
+    The bound (:func:`_gap_ceiling`) is tried from the step's ends, then from its quarters
+    (three more states, remembered by ``step_to`` for every pair of the step).
+    """
+    floor = thr - CORNER_REACH
+    ceiling, g_top = _gap_ceiling(seg, step, i, rates, 1)
+    if ceiling < floor:
+        return True
+    if g_top >= floor:
+        return False
+    ceiling, _ = _gap_ceiling(seg, step, i, rates, 4)
+    return ceiling < floor
 
 
 @njit_no_refcount
@@ -276,8 +302,7 @@ def _contacts_before(opts: Options, seg: Segment, step: Step, work: Work, best: 
             return best
         head = Step(step.phi_b, step.phi_m, step.y_m, best.h)
         eb, em, _, _, _ = step_to(seg, step, best.h)
-        at_event = (math.cos(eb), math.sin(eb), math.cos(em), math.sin(em), step.y_m - best.h)
-        rotation = -1.0  # _rotation_bound of the head, once a pair needs it
+        rates = (-1.0, -1.0)  # _turn_rates of the head, once a pair needs them
         earliest = best
         for i in range(pairs.shape[0]):
             if (n_act > 0 and act[0] == i) or (n_act > 1 and act[1] == i):
@@ -289,10 +314,9 @@ def _contacts_before(opts: Options, seg: Segment, step: Step, work: Work, best: 
                 clipped_gap(row, g_prev[i], cb0, sb0, cm0, sm0, x0, step.y_m) <= thr[i]
             ):
                 continue  # inside at the start already: no crossing in this step
-            if rotation < 0.0:
-                rotation = _rotation_bound(seg, head, eb, em)
-            if _far_behind(row, thr[i], (cb0, sb0, cm0, sm0, step.y_m), at_event, x0, best.h,
-                           rotation):  # fmt: skip
+            if rates[0] < 0.0:
+                rates = _turn_rates(seg, head, eb, em)
+            if _far_behind(seg, head, i, thr[i], rates):
                 continue
             _, hk = locate(seg, head, opts.event_tol, E_CONTACT, i, 0, thr[i])
             if hk >= earliest.h:
@@ -365,7 +389,7 @@ def _contacts_inside_step(
     y1 = step.y_m - step.h
     cb1, sb1, cm1, sm1 = math.cos(nb), math.sin(nb), math.cos(nm), math.sin(nm)
     sampled = False
-    rotation = -1.0  # _rotation_bound, once a pair needs it
+    rates = (-1.0, -1.0)  # _turn_rates, once a pair needs them
     for i in range(pairs.shape[0]):
         if (n_act > 0 and act[0] == i) or (n_act > 1 and act[1] == i):
             continue
@@ -383,10 +407,9 @@ def _contacts_inside_step(
             continue  # crossed by the step's end: _contact_events' case
         if clipped_gap(row, g_prev[i], cb0, sb0, cm0, sm0, x0, step.y_m) <= thr[i]:
             continue  # inside at the start already
-        if rotation < 0.0:
-            rotation = _rotation_bound(seg, step, nb, nm)
-        if _far_behind(row, thr[i], (cb0, sb0, cm0, sm0, step.y_m), (cb1, sb1, cm1, sm1, y1),
-                       x0, step.h, rotation):  # fmt: skip
+        if rates[0] < 0.0:
+            rates = _turn_rates(seg, step, nb, nm)
+        if _far_behind(seg, step, i, thr[i], rates):
             continue
         if not sampled:
             # The states at the samples, computed once and shared by every pair.
