@@ -15,7 +15,7 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
-from .integrate import rk_step
+from .integrate import rk_step_from
 from .motion import slip_margin, velocity
 from .pairs import clipped_gap, eval_pair, pair_at
 from .records import (
@@ -94,6 +94,7 @@ def clear_step_memo(memo: FloatArray) -> None:
     """Forget every remembered step (a new segment: other contacts, another rate)."""
     memo[0, 0] = 0.0  # slots filled
     memo[0, 1] = 0.0  # the slot written next
+    memo[0, 7] = 0.0  # no start rate yet
 
 
 @njit_no_refcount
@@ -104,8 +105,10 @@ def step_to(seg: Segment, step: Step, t: float) -> tuple[float, float, float, fl
     Within a segment the step is a pure function of its start state and ``t``, and the event
     scan asks for the same one many times (the trial step's end again in every root search,
     a located event's state in the contact checks and in the advance to it): the last
-    ``STEP_MEMO_SLOTS`` are remembered in ``seg.step_memo`` (row 0: slots filled, next slot;
-    rows 1..: t, start phi_B, phi_M, y_M, then the result) and returned bit for bit.
+    ``STEP_MEMO_SLOTS`` are remembered in ``seg.step_memo`` (row 0: slots filled, next slot,
+    the last start's phi_B, phi_M, y_M, its rate and whether that is set; rows 1..: t,
+    start phi_B, phi_M, y_M, then the result) and returned bit for bit. The rate at the
+    start, the first stage of every step from it, is computed once per start.
     """
     memo = seg.step_memo
     slots = memo.shape[0] - 1
@@ -117,22 +120,21 @@ def step_to(seg: Segment, step: Step, t: float) -> tuple[float, float, float, fl
             and memo[k, 3] == step.y_m
         ):
             return memo[k, 4], memo[k, 5], memo[k, 6], memo[k, 7], memo[k, 8] != 0.0
-    nb, nm, eb, em, ok = rk_step(
-        seg.pairs,
-        seg.act,
-        seg.n_active,
-        step.phi_b,
-        step.phi_m,
-        seg.x0,
-        step.y_m,
-        t,
-        seg.sqrt_winv_b,
-        seg.sqrt_winv_m,
-        seg.winv_b,
-        seg.winv_m,
-        seg.mu,
-        seg.slip,
-    )
+    if not (
+        memo[0, 7] != 0.0
+        and memo[0, 2] == step.phi_b
+        and memo[0, 3] == step.phi_m
+        and memo[0, 4] == step.y_m
+    ):
+        # The rate at the start is the first stage of every step from it: once per start.
+        k1b, k1m, _, _ = segment_velocity(seg, step.phi_b, step.phi_m, step.y_m)
+        memo[0, 2], memo[0, 3], memo[0, 4] = step.phi_b, step.phi_m, step.y_m
+        memo[0, 5], memo[0, 6], memo[0, 7] = k1b, k1m, 1.0
+    nb, nm, eb, em, ok = rk_step_from(
+        seg.pairs, seg.act, seg.n_active, step.phi_b, step.phi_m, seg.x0, step.y_m, t,
+        seg.sqrt_winv_b, seg.sqrt_winv_m, seg.winv_b, seg.winv_m, seg.mu, seg.slip,
+        memo[0, 5], memo[0, 6],
+    )  # fmt: skip
     k = int(memo[0, 1]) + 1
     memo[k, 0], memo[k, 1], memo[k, 2], memo[k, 3] = t, step.phi_b, step.phi_m, step.y_m
     memo[k, 4], memo[k, 5], memo[k, 6], memo[k, 7] = nb, nm, eb, em

@@ -11,6 +11,7 @@ constants here, so the engine and the typed results cannot drift apart.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable
 from typing import Any, NamedTuple, TypeVar, cast
@@ -168,8 +169,10 @@ class Options(NamedTuple):
     """Coulomb coefficient at every contact."""
 
 
+@functools.lru_cache(maxsize=64)
 def make_options(physics: Physics) -> Options:
-    """The engine's options for a validated :class:`~xface_core.physics.Physics`."""
+    """The engine's options for a validated :class:`~xface_core.physics.Physics` (cached:
+    both are immutable, and every prediction asks)."""
     s = physics.settings
     winv_b = 0.0 if math.isinf(physics.damping_ratio) else 1.0 / physics.damping_ratio
     winv_m = 1.0
