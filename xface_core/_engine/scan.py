@@ -222,12 +222,13 @@ def _turn_rates(seg: Segment, step: Step, nb: float, nm: float) -> tuple[float, 
 
 
 @njit_no_refcount
-def _gap_ceiling(
+def _gap_bounds(
     seg: Segment, step: Step, i: int, rates: tuple[float, float], pieces: int
-) -> tuple[float, float]:
-    """A bound (D) on pair i's plain gap anywhere in the trial step, from its values at
+) -> tuple[float, float, float, float]:
+    """Bounds (D) on pair i's plain gap anywhere in the trial step, from its values at
     ``pieces + 1`` evenly spaced states (the step's ends and ``step_to`` in between) and
-    how fast it can change; also the largest gap at those states.
+    how fast it can change: ``(floor, ceiling, smallest, largest)``, the last two of the
+    gap at those states.
 
     Between two states ``dt`` apart the gap g is Lipschitz in the descent: |dg/ds| <=
     |dg/dy_M| + |dg/dphi_B| r_B + |dg/dphi_M| r_M with ``rates`` = (r_B, r_M) (rad per D,
@@ -242,6 +243,7 @@ def _gap_ceiling(
     arm = math.hypot(row[1], row[2])  # the vertex from its own pivot (D)
     a_b, a_m, lever = 0.0, 0.0, 0.0  # largest |dg/dphi| (D/rad), vertex to edge pivot (D)
     g_top, g_ceiling, g_last = -math.inf, -math.inf, 0.0
+    g_low, g_floor = math.inf, math.inf
     for k in range(pieces + 1):
         pb, pm = step.phi_b, step.phi_m
         if k > 0:
@@ -253,15 +255,18 @@ def _gap_ceiling(
             lever = max(lever, math.hypot(px, py))  # base edge: pivot at the origin
         else:
             lever = max(lever, math.hypot(px - x0, py - y))
-        g_top = max(g_top, g)
+        g_top, g_low = max(g_top, g), min(g_low, g)
         if k > 0:
-            g_ceiling = max(g_ceiling, 0.5 * (g_last + g))  # the Lipschitz part added below
+            # The Lipschitz part is added below.
+            g_ceiling = max(g_ceiling, 0.5 * (g_last + g))
+            g_floor = min(g_floor, 0.5 * (g_last + g))
         g_last = g
     turn = (rate_b + rate_m) * dt
     lever += dt + arm * turn
     change = dt + (arm + lever) * turn  # how far either derivative can move in a piece
     lip = 1.0 + (a_b + change) * rate_b + (a_m + change) * rate_m
-    return max(g_top, g_ceiling + 0.5 * lip * dt), g_top
+    reach = 0.5 * lip * dt
+    return min(g_low, g_floor - reach), max(g_top, g_ceiling + reach), g_low, g_top
 
 
 @njit_no_refcount
@@ -274,17 +279,27 @@ def _far_behind(seg: Segment, step: Step, i: int, thr: float, rates: tuple[float
     search can be skipped with the same result. Such pairs are common: a vertex held on one
     edge is behind the line of the neighbouring edge, whose clipped gap is then the held
     gap, zero to round-off, and its root search bisected that noise (some 30 steps each).
-    The bound (:func:`_gap_ceiling`) is tried from the step's ends, then from its quarters
+    The bound (:func:`_gap_bounds`) is tried from the step's ends, then from its quarters
     (three more states, remembered by ``step_to`` for every pair of the step).
     """
     floor = thr - CORNER_REACH
-    ceiling, g_top = _gap_ceiling(seg, step, i, rates, 1)
+    _, ceiling, _, g_top = _gap_bounds(seg, step, i, rates, 1)
     if ceiling < floor:
         return True
     if g_top >= floor:
         return False
-    ceiling, _ = _gap_ceiling(seg, step, i, rates, 4)
+    _, ceiling, _, _ = _gap_bounds(seg, step, i, rates, 4)
     return ceiling < floor
+
+
+@njit_no_refcount
+def _far_outside(seg: Segment, step: Step, i: int, thr: float, rates: tuple[float, float]) -> bool:
+    """Does pair i's plain gap stay above its threshold all through the trial step (its
+    parts turning at most at ``rates``)? Then its contact function (the clipped gap, never
+    below the plain one) is positive at every state inside the step: sampling it there
+    finds nothing, and :func:`_contacts_inside_step` skips it with the same result."""
+    floor, _, _, _ = _gap_bounds(seg, step, i, rates, 1)
+    return floor > thr
 
 
 @njit_no_refcount
@@ -409,7 +424,7 @@ def _contacts_inside_step(
             continue  # inside at the start already
         if rates[0] < 0.0:
             rates = _turn_rates(seg, step, nb, nm)
-        if _far_behind(seg, step, i, thr[i], rates):
+        if _far_outside(seg, step, i, thr[i], rates) or _far_behind(seg, step, i, thr[i], rates):
             continue
         if not sampled:
             # The states at the samples, computed once and shared by every pair.

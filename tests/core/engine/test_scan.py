@@ -19,7 +19,7 @@ from xface_core._engine.records import (
     Work,
     make_options,
 )
-from xface_core._engine.scan import _far_behind, _gap_ceiling, _turn_rates, find_event
+from xface_core._engine.scan import _far_behind, _far_outside, _gap_bounds, _turn_rates, find_event
 from xface_core.physics import Physics
 from xface_core.runner import engine_model
 
@@ -130,14 +130,18 @@ def test_the_gap_never_rises_above_its_ceiling_in_a_step(design, x0, theta0) -> 
                 continue
             rates = _turn_rates(seg, step, nb, nm)
             for i in range(seg.pairs.shape[0]):
-                top = -np.inf
+                top, low = -np.inf, np.inf
                 for t in np.linspace(0.0, h, 64):
                     pb, pm, _, _, _ = step_to(seg, step, t)
-                    top = max(top, pair_at(seg.pairs, i, pb, pm, seg.x0, step.y_m - t)[0])
+                    g = pair_at(seg.pairs, i, pb, pm, seg.x0, step.y_m - t)[0]
+                    top, low = max(top, g), min(low, g)
                 for pieces in (1, 4):
-                    ceiling, _ = _gap_ceiling(seg, step, i, rates, pieces)
+                    floor, ceiling, _, _ = _gap_bounds(seg, step, i, rates, pieces)
+                    assert floor <= low
                     assert top <= ceiling
                 if _far_behind(seg, step, i, 0.0, rates):
                     assert top < -CORNER_REACH
+                if _far_outside(seg, step, i, 0.0, rates):
+                    assert low > 0.0
                 checked += 1
     assert checked > 100
