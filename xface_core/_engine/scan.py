@@ -21,7 +21,15 @@ from .events import (
     step_to,
 )
 from .motion import slip_margin
-from .pairs import clipped_gap, eval_pair, pair_at, past_reflex_end, wedges_cross
+from .pairs import (
+    COL_EDGE_LENGTH,
+    COL_REACH,
+    clipped_gap,
+    eval_pair,
+    pair_at,
+    past_reflex_end,
+    wedges_cross,
+)
 from .records import (
     COARSE_SAMPLES,
     CORNER_REACH,
@@ -347,7 +355,7 @@ def _contacts_before(opts: Options, seg: Segment, step: Step, work: Work, best: 
 @njit_no_refcount
 def _reach(row: FloatArray) -> float:
     """Largest distance (D) of the pair's vertex or edge ends from their pivots."""
-    return max(math.hypot(row[1], row[2]), math.hypot(row[3], row[4]), math.hypot(row[5], row[6]))
+    return float(row[COL_REACH])
 
 
 @njit_no_refcount
@@ -362,8 +370,7 @@ def _segment_distance(row: FloatArray, g: float, u: float) -> float:
     """Distance (D) of the pair's vertex from its edge (the segment, not the line)."""
     if 0.0 <= u <= 1.0:
         return abs(g)
-    length = math.hypot(row[5] - row[3], row[6] - row[4])
-    return math.hypot(g, (u if u < 0.0 else u - 1.0) * length)
+    return math.hypot(g, (u if u < 0.0 else u - 1.0) * row[COL_EDGE_LENGTH])
 
 
 @njit_no_refcount
@@ -410,6 +417,8 @@ def _contacts_inside_step(
             continue
         row = pairs[i]
         bound = _travel(row, h_end, turn)
+        if abs(g_prev[i]) > bound and abs(g_next[i]) > bound:
+            continue  # the segment is no nearer than the line (spares the hypot below)
         if (
             min(
                 _segment_distance(row, g_prev[i], u_prev[i]),
@@ -502,8 +511,7 @@ def _crossed_at_event(opts: Options, seg: Segment, step: Step, work: Work, nb: f
         # at the event (twice the vertex's travel relative to the edge bounds the change of
         # u times the edge's length).
         travel = 2.0 * _travel(row, best.h, turn)
-        length = math.hypot(row[5] - row[3], row[6] - row[4])
-        if min(abs(u_prev[i]), abs(u_next[i])) - 0.5 > travel / length:
+        if min(abs(u_prev[i]), abs(u_next[i])) - 0.5 > travel / row[COL_EDGE_LENGTH]:
             continue
         g, u, _, _, _, _, _, _, _ = eval_pair(row, now[0], now[1], now[2], now[3], x0, ey)
         if _crossing(opts, rays, row, g, u, now, start, x0):
