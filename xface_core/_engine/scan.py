@@ -481,9 +481,12 @@ def _crossing(
     :func:`~.pairs.wedges_cross`: no vertex is inside the other part then, so no contact
     function shows it; the vertex that went in and out again on the way did, inside the
     step. That test looks within half an edge of the corner, so |u| <= 1/2 and
-    |g| <= half the edge's length: both screen the pair first.
+    |g| <= half the edge's length: both screen the pair first, and so does the vertex's
+    distance from the corner, ``hypot(u * length, g)`` (to 2 % of it: its test takes the
+    distance from the world positions, equal to round-off).
     """
-    if abs(u) > 0.5 or g * g > 0.25 * ((row[5] - row[3]) ** 2 + (row[6] - row[4]) ** 2):
+    length2 = (row[5] - row[3]) ** 2 + (row[6] - row[4]) ** 2
+    if abs(u) > 0.5 or g * g > 0.25 * length2 or u * u * length2 + g * g > 0.26 * length2:
         return False
     margin = TOUCH_WINDOW * opts.touch_tol
     cb, sb, cm, sm, y = now
