@@ -106,9 +106,10 @@ def step_to(seg: Segment, step: Step, t: float) -> tuple[float, float, float, fl
     scan asks for the same one many times (the trial step's end again in every root search,
     a located event's state in the contact checks and in the advance to it): the last
     ``STEP_MEMO_SLOTS`` are remembered in ``seg.step_memo`` (row 0: slots filled, next slot,
-    the last start's phi_B, phi_M, y_M, its rate and whether that is set; rows 1..: t,
-    start phi_B, phi_M, y_M, then the result) and returned bit for bit. The rate at the
-    start, the first stage of every step from it, is computed once per start.
+    the last start's phi_B, phi_M, y_M, its rate and forces and whether they are set; rows
+    1..: t, start phi_B, phi_M, y_M, then the result) and returned bit for bit. The rate at
+    the start, the first stage of every step from it, is computed once per start
+    (:func:`start_velocity`).
     """
     memo = seg.step_memo
     slots = memo.shape[0] - 1
@@ -120,20 +121,11 @@ def step_to(seg: Segment, step: Step, t: float) -> tuple[float, float, float, fl
             and memo[k, 3] == step.y_m
         ):
             return memo[k, 4], memo[k, 5], memo[k, 6], memo[k, 7], memo[k, 8] != 0.0
-    if not (
-        memo[0, 7] != 0.0
-        and memo[0, 2] == step.phi_b
-        and memo[0, 3] == step.phi_m
-        and memo[0, 4] == step.y_m
-    ):
-        # The rate at the start is the first stage of every step from it: once per start.
-        k1b, k1m, _, _ = segment_velocity(seg, step.phi_b, step.phi_m, step.y_m)
-        memo[0, 2], memo[0, 3], memo[0, 4] = step.phi_b, step.phi_m, step.y_m
-        memo[0, 5], memo[0, 6], memo[0, 7] = k1b, k1m, 1.0
+    k1b, k1m, _, _ = start_velocity(seg, step)
     nb, nm, eb, em, ok = rk_step_from(
         seg.pairs, seg.act, seg.n_active, step.phi_b, step.phi_m, seg.x0, step.y_m, t,
         seg.sqrt_winv_b, seg.sqrt_winv_m, seg.winv_b, seg.winv_m, seg.mu, seg.slip,
-        memo[0, 5], memo[0, 6],
+        k1b, k1m,
     )  # fmt: skip
     k = int(memo[0, 1]) + 1
     memo[k, 0], memo[k, 1], memo[k, 2], memo[k, 3] = t, step.phi_b, step.phi_m, step.y_m
@@ -142,6 +134,25 @@ def step_to(seg: Segment, step: Step, t: float) -> tuple[float, float, float, fl
     memo[0, 0] = min(memo[0, 0] + 1.0, float(slots))
     memo[0, 1] = float(k % slots)
     return nb, nm, eb, em, ok
+
+
+@njit_no_refcount
+def start_velocity(seg: Segment, step: Step) -> tuple[float, float, float, float]:
+    """:func:`segment_velocity` at the step's start, computed once per start (remembered in
+    row 0 of ``seg.step_memo``): every step from it begins with it, and the event searches
+    and screens of the step ask for it again."""
+    memo = seg.step_memo
+    if not (
+        memo[0, 7] != 0.0
+        and memo[0, 2] == step.phi_b
+        and memo[0, 3] == step.phi_m
+        and memo[0, 4] == step.y_m
+    ):
+        vb, vm, l1, l2 = segment_velocity(seg, step.phi_b, step.phi_m, step.y_m)
+        memo[0, 2], memo[0, 3], memo[0, 4] = step.phi_b, step.phi_m, step.y_m
+        memo[0, 5], memo[0, 6], memo[0, 9], memo[0, 10] = vb, vm, l1, l2
+        memo[0, 7] = 1.0
+    return memo[0, 5], memo[0, 6], memo[0, 9], memo[0, 10]
 
 
 @njit_no_refcount
@@ -220,7 +231,7 @@ def _hermite_guess(
     NaN when the rates at the step's ends are not finite."""
     hi = step.h
     pb, pm, ym = step.phi_b, step.phi_m, step.y_m
-    v0b, v0m, _, _ = segment_velocity(seg, pb, pm, ym)
+    v0b, v0m, _, _ = start_velocity(seg, step)
     v1b, v1m, _, _ = segment_velocity(seg, nb, nm, ym - hi)
     if not math.isfinite(v0b + v0m + v1b + v1m):
         return math.nan

@@ -18,6 +18,7 @@ from .events import (
     event_value,
     locate,
     segment_velocity,
+    start_velocity,
     step_to,
 )
 from .motion import slip_margin
@@ -69,7 +70,7 @@ def _active_events(
             kind = E_RELEASE
             pbk, pmk, _, _, _ = step_to(seg, step, lo)
             wb, wm, m1, m2 = segment_velocity(seg, pbk, pmk, step.y_m - lo)
-            sb, sm, s1, s2 = segment_velocity(seg, step.phi_b, step.phi_m, step.y_m)
+            sb, sm, s1, s2 = start_velocity(seg, step)
             pole = abs(m1 if k == 0 else m2) > 1e-6 * max(1.0, abs(s1 if k == 0 else s2))
             # With friction the forces also have a pole where the friction-turned normals
             # line up (the contacts wedge) while the rate stays finite: the path goes on,
@@ -220,7 +221,7 @@ def _turn_rates(seg: Segment, step: Step, nb: float, nm: float) -> tuple[float, 
     trial step ending at ``(nb, nm)``: twice the largest of the rates at its ends and its
     mean rate. An accepted step's rate changes little (its error is within rtol); infinite
     when a rate is not finite."""
-    v0b, v0m, _, _ = segment_velocity(seg, step.phi_b, step.phi_m, step.y_m)
+    v0b, v0m, _, _ = start_velocity(seg, step)
     v1b, v1m, _, _ = segment_velocity(seg, nb, nm, step.y_m - step.h)
     rate_b = 2.0 * max(abs(v0b), abs(v1b), abs(nb - step.phi_b) / step.h)
     rate_m = 2.0 * max(abs(v0m), abs(v1m), abs(nm - step.phi_m) / step.h)
