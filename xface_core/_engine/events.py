@@ -95,6 +95,7 @@ def clear_step_memo(memo: FloatArray) -> None:
     memo[0, 0] = 0.0  # slots filled
     memo[0, 1] = 0.0  # the slot written next
     memo[0, 7] = 0.0  # no start rate yet
+    memo[0, 18] = 0.0  # no end rate yet
 
 
 @njit_no_refcount
@@ -106,8 +107,9 @@ def step_to(seg: Segment, step: Step, t: float) -> tuple[float, float, float, fl
     scan asks for the same one many times (the trial step's end again in every root search,
     a located event's state in the contact checks and in the advance to it): the last
     ``STEP_MEMO_SLOTS`` are remembered in ``seg.step_memo`` (row 0: slots filled, next slot,
-    the last start's phi_B, phi_M, y_M, its rate and forces and whether they are set; rows
-    1..: t, start phi_B, phi_M, y_M, then the result) and returned bit for bit. The rate at
+    the last start's phi_B, phi_M, y_M, its rate and forces and whether they are set, the
+    same for the last end state (:func:`end_velocity`); rows 1..: t, start phi_B, phi_M, y_M,
+    then the result) and returned bit for bit. The rate at
     the start, the first stage of every step from it, is computed once per start
     (:func:`start_velocity`).
     """
@@ -153,6 +155,22 @@ def start_velocity(seg: Segment, step: Step) -> tuple[float, float, float, float
         memo[0, 5], memo[0, 6], memo[0, 9], memo[0, 10] = vb, vm, l1, l2
         memo[0, 7] = 1.0
     return memo[0, 5], memo[0, 6], memo[0, 9], memo[0, 10]
+
+
+@njit_no_refcount
+def end_velocity(
+    seg: Segment, pb: float, pm: float, ym: float
+) -> tuple[float, float, float, float]:
+    """:func:`segment_velocity` at a step's end state, remembered for the last such state
+    (row 0 of ``seg.step_memo``): the release check, the turn-rate bound and the Hermite
+    predictor of every search over the whole step all ask for it."""
+    memo = seg.step_memo
+    if not (memo[0, 18] != 0.0 and memo[0, 11] == pb and memo[0, 12] == pm and memo[0, 13] == ym):
+        vb, vm, l1, l2 = segment_velocity(seg, pb, pm, ym)
+        memo[0, 11], memo[0, 12], memo[0, 13] = pb, pm, ym
+        memo[0, 14], memo[0, 15], memo[0, 16], memo[0, 17] = vb, vm, l1, l2
+        memo[0, 18] = 1.0
+    return memo[0, 14], memo[0, 15], memo[0, 16], memo[0, 17]
 
 
 @njit_no_refcount
@@ -232,7 +250,7 @@ def _hermite_guess(
     hi = step.h
     pb, pm, ym = step.phi_b, step.phi_m, step.y_m
     v0b, v0m, _, _ = start_velocity(seg, step)
-    v1b, v1m, _, _ = segment_velocity(seg, nb, nm, ym - hi)
+    v1b, v1m, _, _ = end_velocity(seg, nb, nm, ym - hi)
     if not math.isfinite(v0b + v0m + v1b + v1m):
         return math.nan
     a_lo, a_hi, fa_lo, fa_hi = 0.0, 1.0, f_lo, f_hi

@@ -15,6 +15,7 @@ from .events import (
     Segment,
     Step,
     earlier,
+    end_velocity,
     event_value,
     locate,
     segment_velocity,
@@ -61,7 +62,7 @@ def _active_events(
     changes sign through a pole), or its vertex leaves the edge."""
     y1 = step.y_m - step.h
     tol = opts.event_tol
-    _, _, l1, l2 = segment_velocity(seg, nb, nm, y1)
+    _, _, l1, l2 = end_velocity(seg, nb, nm, y1)
     for k in range(seg.n_active):
         pair = seg.act[k]
         lam = l1 if k == 0 else l2
@@ -222,7 +223,7 @@ def _turn_rates(seg: Segment, step: Step, nb: float, nm: float) -> tuple[float, 
     mean rate. An accepted step's rate changes little (its error is within rtol); infinite
     when a rate is not finite."""
     v0b, v0m, _, _ = start_velocity(seg, step)
-    v1b, v1m, _, _ = segment_velocity(seg, nb, nm, step.y_m - step.h)
+    v1b, v1m, _, _ = end_velocity(seg, nb, nm, step.y_m - step.h)
     rate_b = 2.0 * max(abs(v0b), abs(v1b), abs(nb - step.phi_b) / step.h)
     rate_m = 2.0 * max(abs(v0m), abs(v1m), abs(nm - step.phi_m) / step.h)
     if not math.isfinite(rate_b + rate_m):
