@@ -241,42 +241,53 @@ def _gap_bounds(
     gap at those states.
 
     Between two states ``dt`` apart the gap g is Lipschitz in the descent: |dg/ds| <=
-    |dg/dy_M| + |dg/dphi_B| r_B + |dg/dphi_M| r_M with ``rates`` = (r_B, r_M) (rad per D,
-    :func:`_turn_rates`), |dg/dy_M| <= 1 and the angle derivatives bounded by their largest
-    value at the states plus how far they can change in ``dt`` (the vertex's travel: the
-    descent and its turn about both pivots). From both ends of a piece, g stays below
-    ``(g_a + g_b + Lip dt) / 2`` there (or the larger end value).
+    |dg/dy_M| + |dg/dphi_B| r_B + |dg/dphi_M| r_M, with |dg/dy_M| <= 1, the angle
+    derivatives bounded by their larger value at the two states plus how far they can change
+    in ``dt`` (the vertex's travel: the descent and its turn about both pivots), and the turn
+    rates r bounded by ``rates`` (rad per D, :func:`_turn_rates`) over the whole step, or, in
+    a piece of it, like them from the rates at the piece's ends and its mean rate. From both
+    ends of a piece, g stays between ``(g_a + g_b -+ Lip dt) / 2`` there (or the end values).
     """
     row, x0 = seg.pairs[i], seg.x0
     dt = step.h / pieces
-    rate_b, rate_m = rates
     arm = math.hypot(row[1], row[2])  # the vertex from its own pivot (D)
-    a_b, a_m, lever = 0.0, 0.0, 0.0  # largest |dg/dphi| (D/rad), vertex to edge pivot (D)
-    g_top, g_ceiling, g_last = -math.inf, -math.inf, 0.0
-    g_low, g_floor = math.inf, math.inf
+    g_top, g_low, g_ceiling, g_floor = -math.inf, math.inf, -math.inf, math.inf
+    # The previous state: gap, |dg/dphi| (D/rad), the vertex from the edge's pivot (D),
+    # angles and rates.
+    g_a, ab_a, am_a, lever_a, pb_a, pm_a, vb_a, vm_a = 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
     for k in range(pieces + 1):
         pb, pm = step.phi_b, step.phi_m
         if k > 0:
             pb, pm, _, _, _ = step_to(seg, step, step.h if k == pieces else k * dt)
         y = step.y_m - (step.h if k == pieces else k * dt)
         g, _, ab, am, _, px, py, _, _ = pair_at(seg.pairs, i, pb, pm, x0, y)
-        a_b, a_m = max(a_b, abs(ab)), max(a_m, abs(am))
-        if row[0] == 0.0:
-            lever = max(lever, math.hypot(px, py))  # base edge: pivot at the origin
-        else:
-            lever = max(lever, math.hypot(px - x0, py - y))
+        lever = math.hypot(px, py) if row[0] == 0.0 else math.hypot(px - x0, py - y)
+        vb, vm = 0.0, 0.0
+        if pieces > 1:
+            if k == 0:
+                vb, vm, _, _ = start_velocity(seg, step)
+            elif k == pieces:
+                vb, vm, _, _ = end_velocity(seg, pb, pm, y)
+            else:
+                vb, vm, _, _ = segment_velocity(seg, pb, pm, y)
         g_top, g_low = max(g_top, g), min(g_low, g)
         if k > 0:
-            # The Lipschitz part is added below.
-            g_ceiling = max(g_ceiling, 0.5 * (g_last + g))
-            g_floor = min(g_floor, 0.5 * (g_last + g))
-        g_last = g
-    turn = (rate_b + rate_m) * dt
-    lever += dt + arm * turn
-    change = dt + (arm + lever) * turn  # how far either derivative can move in a piece
-    lip = 1.0 + (a_b + change) * rate_b + (a_m + change) * rate_m
-    reach = 0.5 * lip * dt
-    return min(g_low, g_floor - reach), max(g_top, g_ceiling + reach), g_low, g_top
+            rate_b, rate_m = rates
+            if pieces > 1:
+                rate_b = 2.0 * max(abs(vb_a), abs(vb), abs(pb - pb_a) / dt)
+                rate_m = 2.0 * max(abs(vm_a), abs(vm), abs(pm - pm_a) / dt)
+                if not math.isfinite(rate_b + rate_m):
+                    return -math.inf, math.inf, g_low, g_top
+            turn = (rate_b + rate_m) * dt
+            reach_e = max(lever_a, lever) + dt + arm * turn
+            change = dt + (arm + reach_e) * turn  # how far either derivative can move
+            lip = 1.0 + (max(ab_a, abs(ab)) + change) * rate_b
+            lip += (max(am_a, abs(am)) + change) * rate_m
+            g_ceiling = max(g_ceiling, 0.5 * (g_a + g + lip * dt))
+            g_floor = min(g_floor, 0.5 * (g_a + g - lip * dt))
+        g_a, ab_a, am_a, lever_a = g, abs(ab), abs(am), lever
+        pb_a, pm_a, vb_a, vm_a = pb, pm, vb, vm
+    return min(g_low, g_floor), max(g_top, g_ceiling), g_low, g_top
 
 
 @njit_no_refcount
@@ -448,15 +459,13 @@ def _contacts_inside_step(
             if event_value(seg, E_CONTACT, i, 0, thr[i], samples[k, 0], samples[k, 1],
                            step.y_m - t) > 0.0:  # fmt: skip
                 continue
-            _, hk = locate(
-                seg,
-                Step(step.phi_b, step.phi_m, step.y_m, t),
-                opts.event_tol,
-                E_CONTACT,
-                i,
-                0,
-                thr[i],
-            )
+            head = Step(step.phi_b, step.phi_m, step.y_m, t)
+            # The search runs over the head of the step up to this sample: far behind there
+            # (screened again over that shorter head), its crossing is no contact.
+            head_rates = _turn_rates(seg, head, samples[k, 0], samples[k, 1])
+            if _far_behind(seg, head, i, thr[i], head_rates):
+                break
+            _, hk = locate(seg, head, opts.event_tol, E_CONTACT, i, 0, thr[i])
             if best.kind != E_NONE and hk >= best.h:
                 break
             if _is_contact(seg, step, i, hk, thr[i]):
