@@ -15,7 +15,7 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
-from .integrate import rk_step_from
+from .integrate import rk_step
 from .motion import slip_margin, velocity
 from .pairs import clipped_gap, eval_pair, pair_at
 from .records import (
@@ -94,8 +94,8 @@ def clear_step_memo(memo: FloatArray) -> None:
     """Forget every remembered step (a new segment: other contacts, another rate)."""
     memo[0, 0] = 0.0  # slots filled
     memo[0, 1] = 0.0  # the slot written next
-    memo[0, 7] = 0.0  # no start rate yet
-    memo[0, 18] = 0.0  # no end rate yet
+    memo[0, START_RATE + 7] = 0.0  # no rates remembered
+    memo[0, END_RATE + 7] = 0.0
 
 
 @njit_no_refcount
@@ -107,9 +107,8 @@ def step_to(seg: Segment, step: Step, t: float) -> tuple[float, float, float, fl
     scan asks for the same one many times (the trial step's end again in every root search,
     a located event's state in the contact checks and in the advance to it): the last
     ``STEP_MEMO_SLOTS`` are remembered in ``seg.step_memo`` (row 0: slots filled, next slot,
-    the last start's phi_B, phi_M, y_M, its rate and forces and whether they are set, the
-    same for the last end state (:func:`end_velocity`); rows 1..: t, start phi_B, phi_M, y_M,
-    then the result) and returned bit for bit. The rate at
+    the rates at the last start and end, :data:`START_RATE`; rows 1..: t, start phi_B,
+    phi_M, y_M, then the result) and returned bit for bit. The rate at
     the start, the first stage of every step from it, is computed once per start
     (:func:`start_velocity`).
     """
@@ -124,7 +123,7 @@ def step_to(seg: Segment, step: Step, t: float) -> tuple[float, float, float, fl
         ):
             return memo[k, 4], memo[k, 5], memo[k, 6], memo[k, 7], memo[k, 8] != 0.0
     k1b, k1m, _, _ = start_velocity(seg, step)
-    nb, nm, eb, em, ok = rk_step_from(
+    nb, nm, eb, em, ok = rk_step(
         seg.pairs, seg.act, seg.n_active, step.phi_b, step.phi_m, seg.x0, step.y_m, t,
         seg.sqrt_winv_b, seg.sqrt_winv_m, seg.winv_b, seg.winv_m, seg.mu, seg.slip,
         k1b, k1m,
@@ -138,39 +137,49 @@ def step_to(seg: Segment, step: Step, t: float) -> tuple[float, float, float, fl
     return nb, nm, eb, em, ok
 
 
+#: Row 0 of the step memo: slots filled and the next slot (columns 0, 1), then one
+#: remembered rate each for the last step start and the last step end: at these columns,
+#: the state (phi_B, phi_M, y_M), the rate and forces (4), and whether they are set.
+START_RATE = 2
+END_RATE = 10
+
+
 @njit_no_refcount
-def start_velocity(seg: Segment, step: Step) -> tuple[float, float, float, float]:
-    """:func:`segment_velocity` at the step's start, computed once per start (remembered in
-    row 0 of ``seg.step_memo``): every step from it begins with it, and the event searches
-    and screens of the step ask for it again."""
+def _remembered_velocity(
+    seg: Segment, col: int, pb: float, pm: float, ym: float
+) -> tuple[float, float, float, float]:
+    """:func:`segment_velocity` at a state, remembered at ``col`` of the step memo's row 0
+    for the last state asked there."""
     memo = seg.step_memo
     if not (
-        memo[0, 7] != 0.0
-        and memo[0, 2] == step.phi_b
-        and memo[0, 3] == step.phi_m
-        and memo[0, 4] == step.y_m
+        memo[0, col + 7] != 0.0
+        and memo[0, col] == pb
+        and memo[0, col + 1] == pm
+        and memo[0, col + 2] == ym
     ):
-        vb, vm, l1, l2 = segment_velocity(seg, step.phi_b, step.phi_m, step.y_m)
-        memo[0, 2], memo[0, 3], memo[0, 4] = step.phi_b, step.phi_m, step.y_m
-        memo[0, 5], memo[0, 6], memo[0, 9], memo[0, 10] = vb, vm, l1, l2
-        memo[0, 7] = 1.0
-    return memo[0, 5], memo[0, 6], memo[0, 9], memo[0, 10]
+        vb, vm, l1, l2 = segment_velocity(seg, pb, pm, ym)
+        memo[0, col], memo[0, col + 1], memo[0, col + 2] = pb, pm, ym
+        memo[0, col + 3], memo[0, col + 4], memo[0, col + 5], memo[0, col + 6] = vb, vm, l1, l2
+        memo[0, col + 7] = 1.0
+    return memo[0, col + 3], memo[0, col + 4], memo[0, col + 5], memo[0, col + 6]
+
+
+@njit_no_refcount
+def start_velocity(seg: Segment, step: Step) -> tuple[float, float, float, float]:
+    """:func:`segment_velocity` at the step's start, computed once per start: every step
+    from it begins with it, and the event searches and screens of the step ask for it
+    again."""
+    return _remembered_velocity(seg, START_RATE, step.phi_b, step.phi_m, step.y_m)
 
 
 @njit_no_refcount
 def end_velocity(
     seg: Segment, pb: float, pm: float, ym: float
 ) -> tuple[float, float, float, float]:
-    """:func:`segment_velocity` at a step's end state, remembered for the last such state
-    (row 0 of ``seg.step_memo``): the release check, the turn-rate bound and the Hermite
-    predictor of every search over the whole step all ask for it."""
-    memo = seg.step_memo
-    if not (memo[0, 18] != 0.0 and memo[0, 11] == pb and memo[0, 12] == pm and memo[0, 13] == ym):
-        vb, vm, l1, l2 = segment_velocity(seg, pb, pm, ym)
-        memo[0, 11], memo[0, 12], memo[0, 13] = pb, pm, ym
-        memo[0, 14], memo[0, 15], memo[0, 16], memo[0, 17] = vb, vm, l1, l2
-        memo[0, 18] = 1.0
-    return memo[0, 14], memo[0, 15], memo[0, 16], memo[0, 17]
+    """:func:`segment_velocity` at a step's end state, remembered for the last such state:
+    the release check, the turn-rate bound and the Hermite predictor of every search over
+    the whole step all ask for it."""
+    return _remembered_velocity(seg, END_RATE, pb, pm, ym)
 
 
 @njit_no_refcount

@@ -246,7 +246,7 @@ class Work(NamedTuple):
     samples: FloatArray
     """(FINE_SAMPLES, 2) scratch: (phi_B, phi_M) at the samples inside a trial step."""
     step_memo: FloatArray
-    """(STEP_MEMO_SLOTS + 1, 19) steps integrated in this segment (:func:`~.events.step_to`)."""
+    """(STEP_MEMO_SLOTS + 1, 18) steps integrated in this segment (:func:`~.events.step_to`)."""
 
 
 @njit(cache=True, nogil=True)
@@ -268,5 +268,5 @@ def new_work(model: Model, opts: Options) -> Work:
         np.full(2, FREE, dtype=np.int64),
         np.zeros((4, 2)),
         np.zeros((FINE_SAMPLES, 2)),
-        np.zeros((STEP_MEMO_SLOTS + 1, 19)),
+        np.zeros((STEP_MEMO_SLOTS + 1, 18)),
     )

@@ -75,7 +75,7 @@ class Incline:
         slip = np.full(2, FREE, dtype=np.int64)
         return Segment(
             self.table, act, n_active, 0.0, slip, self.x0, y_floor,
-            math.sqrt(winv_b), 1.0, winv_b, 1.0, np.zeros((STEP_MEMO_SLOTS + 1, 19)),
+            math.sqrt(winv_b), 1.0, winv_b, 1.0, np.zeros((STEP_MEMO_SLOTS + 1, 18)),
         )  # fmt: skip
 
     def step(self, h: float) -> Step:

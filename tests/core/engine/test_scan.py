@@ -38,7 +38,7 @@ def _work(table: np.ndarray, pb: float, pm: float, x0: float, ym: float) -> Work
         ev, ev[:, 0].copy(), ev[:, 1].copy(), np.zeros(n), np.zeros(n), thr,
         np.zeros(16, dtype=np.int64), np.full(8, -1, dtype=np.int64),
         np.array([0, -1, -1, -1], dtype=np.int64), np.zeros(2, dtype=np.int64),
-        np.zeros((4, 2)), np.zeros((FINE_SAMPLES, 2)), np.zeros((STEP_MEMO_SLOTS + 1, 19)),
+        np.zeros((4, 2)), np.zeros((FINE_SAMPLES, 2)), np.zeros((STEP_MEMO_SLOTS + 1, 18)),
     )  # fmt: skip
 
 
@@ -102,7 +102,7 @@ def _segments_of_a_dock(design, x0: float, theta0: float):
         seg = Segment(
             model.pairs, act, len(held), 0.0, np.full(2, FREE, dtype=np.int64), x0, -np.inf,
             opts.sqrt_winv_b, opts.sqrt_winv_m, opts.winv_b, opts.winv_m,
-            np.zeros((STEP_MEMO_SLOTS + 1, 19)),
+            np.zeros((STEP_MEMO_SLOTS + 1, 18)),
         )  # fmt: skip
         y = y0 - p.path.descent[k] / design.width
         yield seg, Step(float(p.path.phi_b[k]), float(p.path.phi_m[k]), float(y), 0.0)
