@@ -53,6 +53,9 @@ from .records import (
     njit_no_refcount,
 )
 
+#: cos and sin of phi_B, then of phi_M, at one state.
+Trig = tuple[float, float, float, float]
+
 
 @njit_no_refcount
 def _active_events(
@@ -174,7 +177,7 @@ def _contact_events(
                 continue
         if rates[0] < 0.0:
             rates = _turn_rates(seg, step, nb, nm)
-        if _far_behind(seg, step, i, thr[i], rates):
+        if _far_behind(seg, step, i, thr[i], rates, (cb0, sb0, cm0, sm0), (cb1, sb1, cm1, sm1)):
             continue
         # Not crossed yet at the earliest event found so far: it cannot come first. Crossed
         # within two event widths before it: the same moment (contacts closing together,
@@ -233,8 +236,9 @@ def _turn_rates(seg: Segment, step: Step, nb: float, nm: float) -> tuple[float, 
 
 @njit_no_refcount
 def _gap_bounds(
-    seg: Segment, step: Step, i: int, rates: tuple[float, float], pieces: int
-) -> tuple[float, float, float, float]:
+    seg: Segment, step: Step, i: int, rates: tuple[float, float], pieces: int, start: Trig,
+    end: Trig,
+) -> tuple[float, float, float, float]:  # fmt: skip
     """Bounds (D) on pair i's plain gap anywhere in the trial step, from its values at
     ``pieces + 1`` evenly spaced states (the step's ends and ``step_to`` in between) and
     how fast it can change: ``(floor, ceiling, smallest, largest)``, the last two of the
@@ -247,6 +251,8 @@ def _gap_bounds(
     rates r bounded by ``rates`` (rad per D, :func:`_turn_rates`) over the whole step, or, in
     a piece of it, like them from the rates at the piece's ends and its mean rate. From both
     ends of a piece, g stays between ``(g_a + g_b -+ Lip dt) / 2`` there (or the end values).
+    ``start``, ``end``: cos and sin of phi_B and phi_M at the step's ends (the callers have
+    them).
     """
     row, x0 = seg.pairs[i], seg.x0
     dt = step.h / pieces
@@ -260,7 +266,10 @@ def _gap_bounds(
         if k > 0:
             pb, pm, _, _, _ = step_to(seg, step, step.h if k == pieces else k * dt)
         y = step.y_m - (step.h if k == pieces else k * dt)
-        g, _, ab, am, _, px, py, _, _ = pair_at(seg.pairs, i, pb, pm, x0, y)
+        cb, sb, cm, sm = start if k == 0 else end
+        if 0 < k < pieces:
+            cb, sb, cm, sm = math.cos(pb), math.sin(pb), math.cos(pm), math.sin(pm)
+        g, _, ab, am, _, px, py, _, _ = eval_pair(row, cb, sb, cm, sm, x0, y)
         lever = math.hypot(px, py) if row[0] == 0.0 else math.hypot(px - x0, py - y)
         vb, vm = 0.0, 0.0
         if pieces > 1:
@@ -291,7 +300,10 @@ def _gap_bounds(
 
 
 @njit_no_refcount
-def _far_behind(seg: Segment, step: Step, i: int, thr: float, rates: tuple[float, float]) -> bool:
+def _far_behind(
+    seg: Segment, step: Step, i: int, thr: float, rates: tuple[float, float], start: Trig,
+    end: Trig,
+) -> bool:  # fmt: skip
     """Is pair i's vertex behind its edge's line by more than CORNER_REACH below its
     threshold all through the trial step (its parts turning at most at ``rates``)?
 
@@ -304,22 +316,25 @@ def _far_behind(seg: Segment, step: Step, i: int, thr: float, rates: tuple[float
     (three more states, remembered by ``step_to`` for every pair of the step).
     """
     floor = thr - CORNER_REACH
-    _, ceiling, _, g_top = _gap_bounds(seg, step, i, rates, 1)
+    _, ceiling, _, g_top = _gap_bounds(seg, step, i, rates, 1, start, end)
     if ceiling < floor:
         return True
     if g_top >= floor:
         return False
-    _, ceiling, _, _ = _gap_bounds(seg, step, i, rates, 4)
+    _, ceiling, _, _ = _gap_bounds(seg, step, i, rates, 4, start, end)
     return ceiling < floor
 
 
 @njit_no_refcount
-def _far_outside(seg: Segment, step: Step, i: int, thr: float, rates: tuple[float, float]) -> bool:
+def _far_outside(
+    seg: Segment, step: Step, i: int, thr: float, rates: tuple[float, float], start: Trig,
+    end: Trig,
+) -> bool:  # fmt: skip
     """Does pair i's plain gap stay above its threshold all through the trial step (its
     parts turning at most at ``rates``)? Then its contact function (the clipped gap, never
     below the plain one) is positive at every state inside the step: sampling it there
     finds nothing, and :func:`_contacts_inside_step` skips it with the same result."""
-    floor, _, _, _ = _gap_bounds(seg, step, i, rates, 1)
+    floor, _, _, _ = _gap_bounds(seg, step, i, rates, 1, start, end)
     return floor > thr
 
 
@@ -338,6 +353,7 @@ def _contacts_before(opts: Options, seg: Segment, step: Step, work: Work, best: 
             return best
         head = Step(step.phi_b, step.phi_m, step.y_m, best.h)
         eb, em, _, _, _ = step_to(seg, step, best.h)
+        at_event = (math.cos(eb), math.sin(eb), math.cos(em), math.sin(em))
         rates = (-1.0, -1.0)  # _turn_rates of the head, once a pair needs them
         earliest = best
         for i in range(pairs.shape[0]):
@@ -352,7 +368,7 @@ def _contacts_before(opts: Options, seg: Segment, step: Step, work: Work, best: 
                 continue  # inside at the start already: no crossing in this step
             if rates[0] < 0.0:
                 rates = _turn_rates(seg, head, eb, em)
-            if _far_behind(seg, head, i, thr[i], rates):
+            if _far_behind(seg, head, i, thr[i], rates, (cb0, sb0, cm0, sm0), at_event):
                 continue
             _, hk = locate(seg, head, opts.event_tol, E_CONTACT, i, 0, thr[i])
             if hk >= earliest.h:
@@ -446,7 +462,10 @@ def _contacts_inside_step(
             continue  # inside at the start already
         if rates[0] < 0.0:
             rates = _turn_rates(seg, step, nb, nm)
-        if _far_outside(seg, step, i, thr[i], rates) or _far_behind(seg, step, i, thr[i], rates):
+        start, end = (cb0, sb0, cm0, sm0), (cb1, sb1, cm1, sm1)
+        if _far_outside(seg, step, i, thr[i], rates, start, end) or _far_behind(
+            seg, step, i, thr[i], rates, start, end
+        ):
             continue
         if not sampled:
             # The states at the samples, computed once and shared by every pair.
@@ -462,8 +481,10 @@ def _contacts_inside_step(
             head = Step(step.phi_b, step.phi_m, step.y_m, t)
             # The search runs over the head of the step up to this sample: far behind there
             # (screened again over that shorter head), its crossing is no contact.
-            head_rates = _turn_rates(seg, head, samples[k, 0], samples[k, 1])
-            if _far_behind(seg, head, i, thr[i], head_rates):
+            sb_k, sm_k = samples[k, 0], samples[k, 1]
+            head_rates = _turn_rates(seg, head, sb_k, sm_k)
+            at_sample = (math.cos(sb_k), math.sin(sb_k), math.cos(sm_k), math.sin(sm_k))
+            if _far_behind(seg, head, i, thr[i], head_rates, (cb0, sb0, cm0, sm0), at_sample):
                 break
             _, hk = locate(seg, head, opts.event_tol, E_CONTACT, i, 0, thr[i])
             if best.kind != E_NONE and hk >= best.h:

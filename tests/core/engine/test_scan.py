@@ -129,6 +129,10 @@ def test_the_gap_never_rises_above_its_ceiling_in_a_step(design, x0, theta0) -> 
             if not ok:
                 continue
             rates = _turn_rates(seg, step, nb, nm)
+            ends = (
+                (np.cos(step.phi_b), np.sin(step.phi_b), np.cos(step.phi_m), np.sin(step.phi_m)),
+                (np.cos(nb), np.sin(nb), np.cos(nm), np.sin(nm)),
+            )
             for i in range(seg.pairs.shape[0]):
                 top, low = -np.inf, np.inf
                 for t in np.linspace(0.0, h, 64):
@@ -136,12 +140,12 @@ def test_the_gap_never_rises_above_its_ceiling_in_a_step(design, x0, theta0) -> 
                     g = pair_at(seg.pairs, i, pb, pm, seg.x0, step.y_m - t)[0]
                     top, low = max(top, g), min(low, g)
                 for pieces in (1, 4):
-                    floor, ceiling, _, _ = _gap_bounds(seg, step, i, rates, pieces)
+                    floor, ceiling, _, _ = _gap_bounds(seg, step, i, rates, pieces, *ends)
                     assert floor <= low
                     assert top <= ceiling
-                if _far_behind(seg, step, i, 0.0, rates):
+                if _far_behind(seg, step, i, 0.0, rates, *ends):
                     assert top < -CORNER_REACH
-                if _far_outside(seg, step, i, 0.0, rates):
+                if _far_outside(seg, step, i, 0.0, rates, *ends):
                     assert low > 0.0
                 checked += 1
     assert checked > 100
