@@ -194,6 +194,19 @@ def segment_velocity(
 
 
 @njit_no_refcount
+def contact_value(
+    row: FloatArray, thr: float, cb: float, sb: float, cm: float, sm: float, x0: float, ym: float
+) -> float:
+    """The contact event function of a pair (its gap with the edge's convex corners clipped
+    on, less the threshold ``thr``, D) at a state given by cos and sin of phi_B and phi_M
+    (for callers that check many pairs at one state)."""
+    g, _, _, _, _, _, _, _, _ = eval_pair(row, cb, sb, cm, sm, x0, ym)
+    if g > thr:
+        return g - thr
+    return clipped_gap(row, g, cb, sb, cm, sm, x0, ym) - thr
+
+
+@njit_no_refcount
 def event_value(
     seg: Segment, kind: int, idx: int, slot: int, thr: float, pb: float, pm: float, ym: float
 ) -> float:
@@ -203,13 +216,8 @@ def event_value(
     which a new contact counts (D).
     """
     if kind == E_CONTACT:
-        # The gap with the edge's convex corners clipped on (scan._contact_events).
         cb, sb, cm, sm = math.cos(pb), math.sin(pb), math.cos(pm), math.sin(pm)
-        row = seg.pairs[idx]
-        g, _, _, _, _, _, _, _, _ = eval_pair(row, cb, sb, cm, sm, seg.x0, ym)
-        if g > thr:
-            return g - thr
-        return clipped_gap(row, g, cb, sb, cm, sm, seg.x0, ym) - thr
+        return contact_value(seg.pairs[idx], thr, cb, sb, cm, sm, seg.x0, ym)
     if kind == E_RELEASE:
         _, _, l1, l2 = segment_velocity(seg, pb, pm, ym)
         lam = l1 if slot == 0 else l2

@@ -244,7 +244,8 @@ class Work(NamedTuple):
     rays: FloatArray
     """(4, 2) scratch of the corner test (:func:`~.pairs.corner_motion_admissible`)."""
     samples: FloatArray
-    """(FINE_SAMPLES, 2) scratch: (phi_B, phi_M) at the samples inside a trial step."""
+    """(FINE_SAMPLES, 6) scratch: phi_B, phi_M and their cos and sin (cos phi_B, sin phi_B,
+    cos phi_M, sin phi_M) at the samples inside a trial step."""
     step_memo: FloatArray
     """(STEP_MEMO_SLOTS + 1, 18) steps integrated in this segment (:func:`~.events.step_to`)."""
 
@@ -267,6 +268,6 @@ def new_work(model: Model, opts: Options) -> Work:
         np.full(4, -1, dtype=np.int64),
         np.full(2, FREE, dtype=np.int64),
         np.zeros((4, 2)),
-        np.zeros((FINE_SAMPLES, 2)),
+        np.zeros((FINE_SAMPLES, 6)),
         np.zeros((STEP_MEMO_SLOTS + 1, 18)),
     )

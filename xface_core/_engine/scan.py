@@ -14,9 +14,9 @@ from .events import (
     Event,
     Segment,
     Step,
+    contact_value,
     earlier,
     end_velocity,
-    event_value,
     locate,
     segment_velocity,
     start_velocity,
@@ -137,10 +137,8 @@ def _contact_events(
     cb1, sb1, cm1, sm1 = math.cos(nb), math.sin(nb), math.cos(nm), math.sin(nm)
     # The states at the earliest event so far and two event widths before it, computed once
     # per candidate event and shared by every pair checked against it.
-    at_h = -1.0
-    at_b, at_m = step.phi_b, step.phi_m
-    early_h = -1.0
-    early_b, early_m = step.phi_b, step.phi_m
+    at_h, at = -1.0, (1.0, 0.0, 1.0, 0.0)  # cos and sin of the angles there
+    early_h, early = -1.0, at
     cb0, sb0, cm0, sm0 = (
         math.cos(step.phi_b),
         math.sin(step.phi_b),
@@ -186,17 +184,16 @@ def _contact_events(
         if best.kind != E_NONE:
             if at_h != best.h:
                 at_b, at_m, _, _, _ = step_to(seg, step, best.h)
+                at = (math.cos(at_b), math.sin(at_b), math.cos(at_m), math.sin(at_m))
                 at_h = best.h
-            if event_value(seg, E_CONTACT, i, 0, thr[i], at_b, at_m, step.y_m - at_h) > 0.0:
+            if contact_value(row, thr[i], *at, x0, step.y_m - at_h) > 0.0:
                 continue
             t_early = max(best.h - 2.0 * tol, 0.0)
             if early_h != best.h:
                 early_b, early_m, _, _, _ = step_to(seg, step, t_early)
+                early = (math.cos(early_b), math.sin(early_b), math.cos(early_m), math.sin(early_m))
                 early_h = best.h
-            if (
-                event_value(seg, E_CONTACT, i, 0, thr[i], early_b, early_m, step.y_m - t_early)
-                > 0.0
-            ):
+            if contact_value(row, thr[i], *early, x0, step.y_m - t_early) > 0.0:
                 continue
         _, hk = locate(seg, step, tol, E_CONTACT, i, 0, thr[i])
         if best.kind != E_NONE and hk >= best.h:
@@ -359,7 +356,7 @@ def _contacts_before(opts: Options, seg: Segment, step: Step, work: Work, best: 
         for i in range(pairs.shape[0]):
             if (n_act > 0 and act[0] == i) or (n_act > 1 and act[1] == i):
                 continue
-            if event_value(seg, E_CONTACT, i, 0, thr[i], eb, em, step.y_m - best.h) > 0.0:
+            if contact_value(pairs[i], thr[i], *at_event, x0, step.y_m - best.h) > 0.0:
                 continue
             row = pairs[i]
             if g_prev[i] <= thr[i] and (
@@ -472,18 +469,18 @@ def _contacts_inside_step(
             for k in range(n_samples):
                 sb_k, sm_k, _, _, _ = step_to(seg, step, (k + 1) / (n_samples + 1) * h_end)
                 samples[k, 0], samples[k, 1] = sb_k, sm_k
+                samples[k, 2], samples[k, 3] = math.cos(sb_k), math.sin(sb_k)
+                samples[k, 4], samples[k, 5] = math.cos(sm_k), math.sin(sm_k)
             sampled = True
         for k in range(n_samples):
             t = (k + 1) / (n_samples + 1) * h_end
-            if event_value(seg, E_CONTACT, i, 0, thr[i], samples[k, 0], samples[k, 1],
-                           step.y_m - t) > 0.0:  # fmt: skip
+            at_sample = (samples[k, 2], samples[k, 3], samples[k, 4], samples[k, 5])
+            if contact_value(row, thr[i], *at_sample, x0, step.y_m - t) > 0.0:
                 continue
             head = Step(step.phi_b, step.phi_m, step.y_m, t)
             # The search runs over the head of the step up to this sample: far behind there
             # (screened again over that shorter head), its crossing is no contact.
-            sb_k, sm_k = samples[k, 0], samples[k, 1]
-            head_rates = _turn_rates(seg, head, sb_k, sm_k)
-            at_sample = (math.cos(sb_k), math.sin(sb_k), math.cos(sm_k), math.sin(sm_k))
+            head_rates = _turn_rates(seg, head, samples[k, 0], samples[k, 1])
             if _far_behind(seg, head, i, thr[i], head_rates, (cb0, sb0, cm0, sm0), at_sample):
                 break
             _, hk = locate(seg, head, opts.event_tol, E_CONTACT, i, 0, thr[i])

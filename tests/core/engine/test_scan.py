@@ -38,7 +38,7 @@ def _work(table: np.ndarray, pb: float, pm: float, x0: float, ym: float) -> Work
         ev, ev[:, 0].copy(), ev[:, 1].copy(), np.zeros(n), np.zeros(n), thr,
         np.zeros(16, dtype=np.int64), np.full(8, -1, dtype=np.int64),
         np.array([0, -1, -1, -1], dtype=np.int64), np.zeros(2, dtype=np.int64),
-        np.zeros((4, 2)), np.zeros((FINE_SAMPLES, 2)), np.zeros((STEP_MEMO_SLOTS + 1, 18)),
+        np.zeros((4, 2)), np.zeros((FINE_SAMPLES, 6)), np.zeros((STEP_MEMO_SLOTS + 1, 18)),
     )  # fmt: skip
 
 
