@@ -1,4 +1,4 @@
-"""Time two versions of xface_core side by side in one process: the ratio after/before.
+"""Time two versions of xface_core side by side: the ratio after/before.
 
     python scripts/bench_side_by_side.py --before <git-rev> [--after <git-rev>|WORKTREE]
         [--repeats N] [--quick] [--out docs/bench/side_by_side.md] [--note TEXT]
@@ -6,20 +6,26 @@
 A git revision's ``xface_core/`` is extracted (``git archive``) into a temporary directory as
 a package of its own name (``xface_core_before``/``_after``), its absolute ``xface_core``
 references (``resources.files("xface_core.data")``, doctests) rewritten; ``WORKTREE`` (the
-default ``--after``) is the working tree's package. Numba caches by file path, so each copy
-compiles its own kernels; both are warmed up first. Each repeat runs every workload before,
-then after, so drift on a shared machine hits both alike; the table has per-call medians over
-the repeats, their ratio, the range of the per-repeat ratios and of the repeats. Exit 1 if
-the versions' outcomes differ on any workload, 2 if one cannot be loaded.
+default ``--after``) is the working tree's package. Each version runs in a process of its own
+(this script with ``--serve``), driven over a pipe: in one process the version imported
+second paid about 150 us per kernel call in numba's dispatch (both versions' records are
+tuples of the same element types, so they share one type fingerprint and the second version's
+calls miss numba's fast path), which made a version look slower than itself. Numba caches by
+file path, so each copy compiles its own kernels; both are warmed up first. Each repeat runs
+every workload before, then after, so drift on a shared machine hits both alike; the table has
+per-call medians over the repeats, their ratio, the range of the per-repeat ratios and of the
+repeats. Exit 1 if the versions' outcomes differ on any workload, 2 if one cannot be loaded.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import gc
 import importlib
 import importlib.util
 import inspect
+import json
 import math
 import os
 import platform
@@ -44,7 +50,6 @@ PACKAGE = "xface_core"
 WORKTREE = "WORKTREE"
 Design = tuple[str, float, float]  # kind, H/D, r_p
 Pose = tuple[Design, float, float]  # design, x0 (D), theta0 (rad)
-Pair = tuple[Callable[[], Any], Callable[[], Any]]  # the same call on before, after
 MAPS: tuple[Design, ...] = (("X", 0.25, 2.0), ("X", 1.0, 1.0), ("V", 0.5, 1.0), ("S", 0.5, 1.0))
 POSES: tuple[Pose, ...] = ((MAPS[0], 0.3, 0.2), (MAPS[2], 0.2, 0.3), (MAPS[3], 0.1, -0.2))
 HEADER = (
@@ -73,7 +78,6 @@ class Workload:
     name: str
     unit: str  # "us" or "ms"
     calls: int
-    run: Pair
     times: tuple[list[float], list[float]] = field(default_factory=lambda: ([], []))
 
 
@@ -106,25 +110,15 @@ def rewrite_absolute(package_dir: Path, name: str) -> int:
     return count
 
 
-def load_revision(sha: str, tmp: Path, name: str) -> tuple[ModuleType, int]:
-    """Extract commit ``sha``'s xface_core into ``tmp/name``; import it as package ``name``."""
+def extract_revision(sha: str, tmp: Path, name: str) -> int:
+    """Extract commit ``sha``'s xface_core into ``tmp/name``, importable as package ``name``
+    from ``tmp``; returns how many absolute references were rewritten."""
     archive = subprocess.run(["git", "archive", sha, PACKAGE], cwd=ROOT, check=True,
                              capture_output=True).stdout  # fmt: skip
     subprocess.run(["tar", "-x", "-C", str(tmp)], input=archive, check=True)
     package_dir = tmp / name
     (tmp / PACKAGE).rename(package_dir)
-    rewrites = rewrite_absolute(package_dir, name)
-    init, search = package_dir / "__init__.py", [str(package_dir)]
-    spec = importlib.util.spec_from_file_location(name, init, submodule_search_locations=search)
-    assert spec is not None
-    assert spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[name] = module
-    try:
-        spec.loader.exec_module(module)
-    except Exception as exc:
-        raise ImportError(f"{sha[:12]}'s {PACKAGE} does not import as {name}: {exc!r}") from exc
-    return module, rewrites
+    return rewrite_absolute(package_dir, name)
 
 
 def load_worktree() -> ModuleType:
@@ -140,20 +134,16 @@ def load_worktree() -> ModuleType:
     return module
 
 
-def load_sides(args: argparse.Namespace, tmp: Path) -> tuple[list[ModuleType], list[str]]:
-    modules, notes = [], []
-    for role, rev in (("before", args.before), ("after", args.after)):
-        if rev == WORKTREE:
-            modules.append(load_worktree())
-            continue
-        name = f"{PACKAGE}_{role}"
-        while name in sys.modules:
-            name += "_"
-        module, rewrites = load_revision(rev, tmp, name)
-        modules.append(module)
-        if rewrites:
-            notes.append(f"{role}: rewrote {rewrites} absolute `{PACKAGE}` references to {name}")
-    return modules, notes
+def load_served(name: str, where: str) -> ModuleType:
+    """The version a ``--serve`` process times: the working tree's package, or an
+    extracted copy ``name`` in directory ``where``."""
+    if name == PACKAGE:
+        return load_worktree()
+    sys.path.insert(0, where)
+    try:
+        return importlib.import_module(name)
+    except Exception as exc:
+        raise ImportError(f"{name} does not import: {exc!r}") from exc
 
 
 def warm_up(xf: ModuleType) -> float:
@@ -164,37 +154,125 @@ def warm_up(xf: ModuleType) -> float:
     return time.perf_counter() - start
 
 
-def threads_kw(modules: Sequence[ModuleType], function: str) -> dict[str, int]:
-    """``threads=1`` if every version's ``function`` takes that keyword, else nothing."""
-    has = [("threads" in inspect.signature(getattr(m, function)).parameters) for m in modules]
-    return {"threads": 1} if all(has) else {}
+def takes_threads(xf: ModuleType) -> dict[str, bool]:
+    """Which of the timed functions take ``threads=``."""
+    return {
+        f: "threads" in inspect.signature(getattr(xf, f)).parameters
+        for f in ("acceptance_map", "predict_batch")
+    }
 
 
-def bind(modules: Sequence[ModuleType], design: Design, call: Callable[..., Any]) -> Pair:
-    """``call(xf, face)`` for each version, with its own module and its own face object."""
-
-    def one(xf: ModuleType) -> Callable[[], Any]:
-        face = xf.make_face(*design)
-        return lambda: call(xf, face)
-
-    return one(modules[0]), one(modules[1])
-
-
-def build_workloads(modules: Sequence[ModuleType], sizes: Sizes) -> list[Workload]:
-    map_kw, batch_kw = threads_kw(modules, "acceptance_map"), threads_kw(modules, "predict_batch")
-    g, xf0 = sizes.grid, modules[0]
-    x0, th = np.meshgrid(xf0.x0_grid(g), xf0.theta_grid(g), indexing="ij")
-    out = []
+def workloads(sizes: Sizes) -> list[Workload]:
+    """The workloads, in the order :func:`workload_calls` builds their calls."""
+    g, out = sizes.grid, []
     for d, x, t in sizes.poses:
-        run = bind(modules, d, lambda xf, f, x=x, t=t: xf.predict(f, x, t))
         out.append(Workload("predict", f"predict {label(d)} at ({x}, {t})", "us",
-                            sizes.predict_calls, run))  # fmt: skip
+                            sizes.predict_calls))  # fmt: skip
     for d in sizes.maps:
-        run = bind(modules, d, lambda xf, f: xf.acceptance_map(f, grid=g, **map_kw))
-        out.append(Workload("map", f"map {label(d)} {g}x{g}", "ms", sizes.map_calls, run))
-        run = bind(modules, d, lambda xf, f: xf.predict_batch(f, x0 * f.width, th, **batch_kw))
-        out.append(Workload("batch", f"batch {label(d)} {g}x{g}", "ms", sizes.map_calls, run))
+        out.append(Workload("map", f"map {label(d)} {g}x{g}", "ms", sizes.map_calls))
+        out.append(Workload("batch", f"batch {label(d)} {g}x{g}", "ms", sizes.map_calls))
     return out
+
+
+def workload_calls(
+    xf: ModuleType, sizes: Sizes, map_kw: dict[str, int], batch_kw: dict[str, int]
+) -> list[Callable[[], Any]]:
+    """One call per workload of :func:`workloads`, on version ``xf``."""
+    g = sizes.grid
+    x0, th = np.meshgrid(xf.x0_grid(g), xf.theta_grid(g), indexing="ij")
+    out: list[Callable[[], Any]] = []
+    for d, x, t in sizes.poses:
+        face = xf.make_face(*d)
+        out.append(lambda f=face, x=x, t=t: xf.predict(f, x, t))
+    for d in sizes.maps:
+        face = xf.make_face(*d)
+        out.append(lambda f=face: xf.acceptance_map(f, grid=g, **map_kw))
+        out.append(lambda f=face: xf.predict_batch(f, x0 * f.width, th, **batch_kw))
+    return out
+
+
+def serve(name: str, where: str) -> int:
+    """``--serve NAME DIR``: time one version in this process, driven by the parent over
+    stdin/stdout (one JSON object a line each way)."""
+    channel, sys.stdout = sys.stdout, sys.stderr  # only replies go to the parent
+
+    def reply(**fields: Any) -> None:
+        channel.write(json.dumps(fields) + "\n")
+        channel.flush()
+
+    try:
+        xf = load_served(name, where)
+    except ImportError as exc:
+        reply(error=str(exc))
+        return 2
+    calls: list[Callable[[], Any]] = []
+    for line in sys.stdin:
+        cmd = json.loads(line)
+        op = cmd["op"]
+        if op == "hello":
+            reply(threads=takes_threads(xf), seated=int(xf.Outcome.SEATED))
+        elif op == "setup":
+            sizes = QUICK if cmd["quick"] else FULL
+            warm = warm_up(xf)
+            calls = workload_calls(xf, sizes, cmd["map_kw"], cmd["batch_kw"])
+            reply(warmup=warm)
+        elif op == "outcomes":
+            reply(codes=outcomes(calls[cmd["index"]]()).tolist())
+        elif op == "time":
+            run, n = calls[cmd["index"]], cmd["calls"]
+            gc.collect()  # both sides start from a collected heap
+            start = time.perf_counter()
+            for _ in range(n):
+                run()
+            reply(seconds=(time.perf_counter() - start) / n)
+        else:
+            reply(done=True)
+            break
+    return 0
+
+
+class Side:
+    """One version in its own ``--serve`` process."""
+
+    def __init__(self, name: str, where: Path) -> None:
+        self.name = name
+        cmd = [sys.executable, str(Path(__file__).resolve()), "--serve", name, str(where)]
+        self.proc = subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                     text=True, cwd=ROOT)  # fmt: skip
+
+    def ask(self, op: str, **fields: Any) -> dict[str, Any]:
+        assert self.proc.stdin is not None
+        assert self.proc.stdout is not None
+        if self.proc.poll() is None:
+            self.proc.stdin.write(json.dumps({"op": op, **fields}) + "\n")
+            self.proc.stdin.flush()
+        line = self.proc.stdout.readline()
+        if not line:
+            raise ImportError(f"{self.name}'s process ended (exit {self.proc.wait()})")
+        answer: dict[str, Any] = json.loads(line)
+        if "error" in answer:
+            raise ImportError(answer["error"])
+        return answer
+
+    def close(self) -> None:
+        if self.proc.poll() is None:
+            with contextlib.suppress(ImportError, OSError):
+                self.ask("quit")
+        self.proc.wait()
+
+
+def start_sides(args: argparse.Namespace, tmp: Path) -> tuple[list[Side], list[str]]:
+    sides, notes = [], []
+    for role, rev in (("before", args.before), ("after", args.after)):
+        if rev == WORKTREE:
+            sides.append(Side(PACKAGE, ROOT))
+            continue
+        name = f"{PACKAGE}_{role}"
+        rewrites = extract_revision(rev, tmp, name)
+        sides.append(Side(name, tmp))
+        if rewrites:
+            notes.append(f"{role}: rewrote {rewrites} absolute `{PACKAGE}` references to {name}")
+    return sides, notes
 
 
 def label(design: Design) -> str:
@@ -208,11 +286,12 @@ def outcomes(result: Any) -> np.ndarray:
     return np.asarray(codes, dtype=np.int64)
 
 
-def compare(workloads: Sequence[Workload], seated_code: int) -> tuple[list[str], bool]:
+def compare(sides: Sequence[Side], loads: Sequence[Workload], seated_code: int
+            ) -> tuple[list[str], bool]:  # fmt: skip
     """One line per workload: do both versions give the same outcomes?"""
     lines, same = [], True
-    for w in workloads:
-        a, b = (outcomes(run()) for run in w.run)
+    for k, w in enumerate(loads):
+        a, b = (np.asarray(side.ask("outcomes", index=k)["codes"]) for side in sides)
         if a.shape == b.shape and np.array_equal(a, b):
             seated = int(np.count_nonzero(a == seated_code))
             lines.append(f"identical outcomes: {w.name} (poses {a.size}, seated {seated})")
@@ -223,17 +302,13 @@ def compare(workloads: Sequence[Workload], seated_code: int) -> tuple[list[str],
     return lines, same
 
 
-def measure(workloads: Sequence[Workload], repeats: int) -> None:
+def measure(sides: Sequence[Side], loads: Sequence[Workload], repeats: int) -> None:
     """Per-call seconds of every workload, ``repeats`` times, sides interleaved."""
     for _ in range(repeats):
-        for w in workloads:
+        for k, w in enumerate(loads):
             for side in (0, 1):
-                run = w.run[side]
-                gc.collect()  # both sides start from the same heap state
-                start = time.perf_counter()
-                for _ in range(w.calls):
-                    run()
-                w.times[side].append((time.perf_counter() - start) / w.calls)
+                seconds = sides[side].ask("time", index=k, calls=w.calls)["seconds"]
+                w.times[side].append(seconds)
 
 
 def table(workloads: Sequence[Workload]) -> list[str]:
@@ -267,13 +342,13 @@ def machine_note() -> str:
 
 
 def report(args: argparse.Namespace, argv: Sequence[str], info: dict[str, Any]) -> str:
-    modules, warm = info["modules"], info["warmup_s"]
+    names, warm = info["names"], info["warmup_s"]
     head = [
         "# Side-by-side timing: before vs after",
         "",
         *([f"> {args.note}", ""] if args.note else []),
-        f"- before: `{info['described'][0]}` (imported as `{modules[0].__name__}`)",
-        f"- after: `{info['described'][1]}` (imported as `{modules[1].__name__}`)",
+        f"- before: `{info['described'][0]}` (imported as `{names[0]}`, own process)",
+        f"- after: `{info['described'][1]}` (imported as `{names[1]}`, own process)",
         (
             f"- {args.repeats} repeats per side, interleaved; per-call medians; "
             f"{'quick' if args.quick else 'full'} workloads; threads: {info['threads']}; "
@@ -301,28 +376,38 @@ def parse(argv: Sequence[str]) -> argparse.Namespace:
 
 
 def run_both(args: argparse.Namespace, tmp: Path) -> tuple[dict[str, Any], bool]:
-    """Load, warm up, check outcomes and time both versions; the report's parts."""
+    """Start, warm up, check outcomes and time both versions; the report's parts."""
     args.before, args.after = resolve(args.before), resolve(args.after)
     described = [describe(args.before), describe(args.after)]
-    modules, notes = load_sides(args, tmp)
-    warmup_s = [warm_up(xf) for xf in modules]
-    workloads = build_workloads(modules, QUICK if args.quick else FULL)
-    checks, same = compare(workloads, int(modules[0].Outcome.SEATED))
-    print("\n".join(checks), file=sys.stderr, flush=True)
-    measure(workloads, args.repeats)
-    threads = ", ".join(
-        f"{f} {'threads=1' if threads_kw(modules, f) else 'default'}"
-        for f in ("acceptance_map", "predict_batch")
-    )
-    body = [*table(workloads), "", *(f"- {line}" for line in [*checks, *notes])]
-    info = {"modules": modules, "warmup_s": warmup_s, "threads": threads, "body": body}
+    sides, notes = start_sides(args, tmp)
+    try:
+        hellos = [side.ask("hello") for side in sides]
+        kws = {
+            f: ({"threads": 1} if all(h["threads"][f] for h in hellos) else {})
+            for f in ("acceptance_map", "predict_batch")
+        }
+        setup = {"quick": args.quick, "map_kw": kws["acceptance_map"],
+                 "batch_kw": kws["predict_batch"]}  # fmt: skip
+        warmup_s = [side.ask("setup", **setup)["warmup"] for side in sides]
+        loads = workloads(QUICK if args.quick else FULL)
+        checks, same = compare(sides, loads, int(hellos[0]["seated"]))
+        print("\n".join(checks), file=sys.stderr, flush=True)
+        measure(sides, loads, args.repeats)
+    finally:
+        for side in sides:
+            side.close()
+    threads = ", ".join(f"{f} {'threads=1' if kw else 'default'}" for f, kw in kws.items())
+    body = [*table(loads), "", *(f"- {line}" for line in [*checks, *notes])]
+    info = {"names": [side.name for side in sides], "warmup_s": warmup_s, "threads": threads,
+            "body": body}  # fmt: skip
     return {**info, "described": described}, same
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
+    if argv[:1] == ["--serve"] and len(argv) == 3:
+        return serve(argv[1], argv[2])
     args = parse(argv)
-    names_before = set(sys.modules)
     with tempfile.TemporaryDirectory(prefix="xface_side_by_side_") as tmp:
         try:
             info, same = run_both(args, Path(tmp))
@@ -330,10 +415,6 @@ def main(argv: Sequence[str] | None = None) -> int:
             detail = getattr(exc, "stderr", None) or exc
             print(f"error: {detail}".strip(), file=sys.stderr)
             return 2
-        finally:
-            for name in set(sys.modules) - names_before:  # the extracted copies go with tmp
-                if name.startswith(f"{PACKAGE}_"):
-                    del sys.modules[name]
     text = report(args, argv, info)
     print(text, end="")
     if args.out is not None:

@@ -8,8 +8,10 @@ Writes to ``--out`` (default ``bench/``):
   shapely), and map mismatches, split into
   nodes on an outcome boundary (the reference flips within 1e-6 of the node) and the rest;
 - ``work_precision.png``: error against time, log-log;
-- ``targets.md``: the speed targets (one prediction with its path, one map, all tables) and
-  the ablation of the skip techniques that can be switched off.
+- ``targets.md``: the speed targets (one prediction with its path, one map, all tables), the
+  ablation of the skip techniques that can be switched off, and, with the ``crosscheck``
+  extra installed, the time per 41 x 41 map against the pymunk (Chipmunk2D) scene of
+  :mod:`xface_core.crosscheck`, both on one thread.
 
 Times are medians of repeats on this machine; they are benchmarks, never test assertions.
 A progress bar (steps done of all, time left) goes to stderr when it is a terminal
@@ -299,6 +301,38 @@ def _targets(quick: bool, repeats: int, steps: _Steps) -> list[str]:
     return lines
 
 
+#: pymunk is timed on the diagonal of the 41 x 41 grid (cell k, k: every offset and every
+#: angle once) and its mean time per cell scaled to the map's 1681 cells.
+PYMUNK_GRID = 41
+
+
+def _pymunk_lines(quick: bool, repeats: int) -> list[str]:
+    """Time per 41 x 41 map of xface (one thread, as shipped: mirror symmetry on) and of the
+    pymunk scene of the crosscheck extra (one thread, scaled from the grid's diagonal)."""
+    try:
+        from .crosscheck import run_cell  # the crosscheck extra (pymunk, shapely)
+    except ImportError:
+        return [
+            "| pymunk scene per 41 x 41 map | not measured: `pip install 'xface[crosscheck]'` | |"
+        ]
+    x0s, thetas = x0_grid(PYMUNK_GRID), theta_grid(PYMUNK_GRID)
+    cells = PYMUNK_GRID * PYMUNK_GRID
+    lines = []
+    for face, h, rp in BENCH_DESIGNS[:1] if quick else BENCH_DESIGNS:
+        d = make_face(face, h, rp)
+        t_map = _median_time(partial(acceptance_map, d, threads=1), repeats)
+        t0 = time.perf_counter()
+        for k in range(PYMUNK_GRID):
+            run_cell(d, float(x0s[k]), float(thetas[k]))
+        per_cell = (time.perf_counter() - t0) / PYMUNK_GRID
+        lines.append(
+            f"| 41 x 41 map, {face} H/D {h:g} r_p {rp:g}: xface / pymunk scene (one thread; "
+            f"pymunk {per_cell * 1e3:.1f} ms per cell x {cells}) | {t_map * 1e3:.0f} ms / "
+            f"{per_cell * cells:.0f} s: {per_cell * cells / t_map:.0f}x | >= 1000x |"
+        )
+    return lines
+
+
 def run_bench(args: argparse.Namespace) -> int:
     """Entry point of ``xface bench``."""
     out = Path(args.out)
@@ -326,6 +360,7 @@ def run_bench(args: argparse.Namespace) -> int:
         _write_table(rows, out)
         plot_work_precision(rows, out)
         lines = _targets(quick, repeats, steps)
+    lines += _pymunk_lines(quick, repeats)
     (out / "targets.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
     clean = [r for r in rows if r["symmetry"] and r["mismatch_other"] == 0]

@@ -22,6 +22,9 @@ col   meaning
 15    1 if the edge's end corner is convex, else 0
 16-17 unit direction from the vertex to the next vertex of its polygon (vertex's frame)
 18-19 unit direction from the vertex to the previous vertex of its polygon
+20    largest distance of the vertex or the edge's ends from their pivots (filled by
+      :func:`~xface_core._engine.pairs.fill_extents`)
+21    the edge's length (likewise)
 ====  =================================================================================
 
 The neighbours' normals let the engine tell, near a corner, whether a vertex behind the
@@ -40,7 +43,7 @@ import numpy as np
 import numpy.typing as npt
 
 from ._engine import Model
-from ._engine.pairs import eval_pair
+from ._engine.pairs import PAIR_COLUMNS, eval_pair, fill_extents
 from .geometry import FaceDesign
 
 __all__ = ["PairTable", "clear_cache", "contact_geometry", "eval_pair", "pair_table"]
@@ -79,7 +82,6 @@ def _edges(poly: FloatArray, layer: int) -> FloatArray:
 
 
 #: Columns of a pair row (see the module docstring).
-PAIR_COLUMNS = 20
 
 
 def _unit(v: FloatArray) -> FloatArray:
@@ -132,6 +134,7 @@ def _build(design: FaceDesign) -> PairTable:
         tables.append(_pairs(moving, be, MOVING_VERTEX))
         tables.append(_pairs(base, me, BASE_VERTEX))
     data = np.ascontiguousarray(np.vstack(tables))
+    fill_extents(data)
     base = np.ascontiguousarray(np.vstack(base_edges))
     moving = np.ascontiguousarray(np.vstack(moving_edges))
     return PairTable(

@@ -179,6 +179,8 @@ class Physics:
     ) -> Physics:
         """The physics an entry point runs with: ``physics`` itself, or one built from the
         loose keyword arguments (the older spelling, still accepted); not both."""
+        if physics is None and damping_ratio is None and friction is None and settings is None:
+            return DEFAULT_PHYSICS  # the common call, without building and checking it again
         loose = {"damping_ratio": damping_ratio, "friction": friction, "settings": settings}
         given = sorted(k for k, v in loose.items() if v is not None)
         if physics is None:

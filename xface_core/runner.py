@@ -166,10 +166,18 @@ def _alignment_path(
         descent=(y0_d - buf[:n, 0]) * w,
         phi_b=buf[:n, 1].copy(),
         phi_m=buf[:n, 2].copy(),
-        pivot_m=np.column_stack((np.full(n, x0), buf[:n, 0] * w)),
+        pivot_m=_pivot_track(buf[:n, 0], x0, w),
         phase=buf[:n, 3].astype(np.int64),
         contact_pairs=pairs[:n].copy(),
     )
+
+
+def _pivot_track(y_m: FloatArray, x0: float, w: float) -> FloatArray:
+    """(n, 2) moving-pivot positions (length) from its heights ``y_m`` (D) at offset x0."""
+    out = np.empty((len(y_m), 2))
+    out[:, 0] = x0
+    out[:, 1] = y_m * w
+    return out
 
 
 @dataclass(frozen=True)

@@ -52,6 +52,9 @@ class Segment(NamedTuple):
     sqrt_winv_m: float
     winv_b: float
     winv_m: float
+    step_memo: FloatArray
+    """Steps already integrated in this segment (:func:`step_to`; emptied by
+    :func:`clear_step_memo` whenever a segment begins)."""
 
 
 class Step(NamedTuple):
@@ -87,25 +90,96 @@ def earlier(candidate: Event, best: Event) -> Event:
 
 
 @njit_no_refcount
+def clear_step_memo(memo: FloatArray) -> None:
+    """Forget every remembered step (a new segment: other contacts, another rate)."""
+    memo[0, 0] = 0.0  # slots filled
+    memo[0, 1] = 0.0  # the slot written next
+    memo[0, START_RATE + 7] = 0.0  # no rates remembered
+    memo[0, END_RATE + 7] = 0.0
+
+
+@njit_no_refcount
 def step_to(seg: Segment, step: Step, t: float) -> tuple[float, float, float, float, bool]:
     """One integration step of length ``t`` from the trial step's start:
-    ``(phi_b, phi_m, err_b, err_m, ok)``."""
-    return rk_step(
-        seg.pairs,
-        seg.act,
-        seg.n_active,
-        step.phi_b,
-        step.phi_m,
-        seg.x0,
-        step.y_m,
-        t,
-        seg.sqrt_winv_b,
-        seg.sqrt_winv_m,
-        seg.winv_b,
-        seg.winv_m,
-        seg.mu,
-        seg.slip,
-    )
+    ``(phi_b, phi_m, err_b, err_m, ok)``.
+
+    Within a segment the step is a pure function of its start state and ``t``, and the event
+    scan asks for the same one many times (the trial step's end again in every root search,
+    a located event's state in the contact checks and in the advance to it): the last
+    ``STEP_MEMO_SLOTS`` are remembered in ``seg.step_memo`` (row 0: slots filled, next slot,
+    the rates at the last start and end, :data:`START_RATE`; rows 1..: t, start phi_B,
+    phi_M, y_M, then the result) and returned bit for bit. The rate at
+    the start, the first stage of every step from it, is computed once per start
+    (:func:`start_velocity`).
+    """
+    memo = seg.step_memo
+    slots = memo.shape[0] - 1
+    for k in range(1, int(memo[0, 0]) + 1):
+        if (
+            memo[k, 0] == t
+            and memo[k, 1] == step.phi_b
+            and memo[k, 2] == step.phi_m
+            and memo[k, 3] == step.y_m
+        ):
+            return memo[k, 4], memo[k, 5], memo[k, 6], memo[k, 7], memo[k, 8] != 0.0
+    k1b, k1m, _, _ = start_velocity(seg, step)
+    nb, nm, eb, em, ok = rk_step(
+        seg.pairs, seg.act, seg.n_active, step.phi_b, step.phi_m, seg.x0, step.y_m, t,
+        seg.sqrt_winv_b, seg.sqrt_winv_m, seg.winv_b, seg.winv_m, seg.mu, seg.slip,
+        k1b, k1m,
+    )  # fmt: skip
+    k = int(memo[0, 1]) + 1
+    memo[k, 0], memo[k, 1], memo[k, 2], memo[k, 3] = t, step.phi_b, step.phi_m, step.y_m
+    memo[k, 4], memo[k, 5], memo[k, 6], memo[k, 7] = nb, nm, eb, em
+    memo[k, 8] = 1.0 if ok else 0.0
+    memo[0, 0] = min(memo[0, 0] + 1.0, float(slots))
+    memo[0, 1] = float(k % slots)
+    return nb, nm, eb, em, ok
+
+
+#: Row 0 of the step memo: slots filled and the next slot (columns 0, 1), then one
+#: remembered rate each for the last step start and the last step end: at these columns,
+#: the state (phi_B, phi_M, y_M), the rate and forces (4), and whether they are set.
+START_RATE = 2
+END_RATE = 10
+
+
+@njit_no_refcount
+def _remembered_velocity(
+    seg: Segment, col: int, pb: float, pm: float, ym: float
+) -> tuple[float, float, float, float]:
+    """:func:`segment_velocity` at a state, remembered at ``col`` of the step memo's row 0
+    for the last state asked there."""
+    memo = seg.step_memo
+    if not (
+        memo[0, col + 7] != 0.0
+        and memo[0, col] == pb
+        and memo[0, col + 1] == pm
+        and memo[0, col + 2] == ym
+    ):
+        vb, vm, l1, l2 = segment_velocity(seg, pb, pm, ym)
+        memo[0, col], memo[0, col + 1], memo[0, col + 2] = pb, pm, ym
+        memo[0, col + 3], memo[0, col + 4], memo[0, col + 5], memo[0, col + 6] = vb, vm, l1, l2
+        memo[0, col + 7] = 1.0
+    return memo[0, col + 3], memo[0, col + 4], memo[0, col + 5], memo[0, col + 6]
+
+
+@njit_no_refcount
+def start_velocity(seg: Segment, step: Step) -> tuple[float, float, float, float]:
+    """:func:`segment_velocity` at the step's start, computed once per start: every step
+    from it begins with it, and the event searches and screens of the step ask for it
+    again."""
+    return _remembered_velocity(seg, START_RATE, step.phi_b, step.phi_m, step.y_m)
+
+
+@njit_no_refcount
+def end_velocity(
+    seg: Segment, pb: float, pm: float, ym: float
+) -> tuple[float, float, float, float]:
+    """:func:`segment_velocity` at a step's end state, remembered for the last such state:
+    the release check, the turn-rate bound and the Hermite predictor of every search over
+    the whole step all ask for it."""
+    return _remembered_velocity(seg, END_RATE, pb, pm, ym)
 
 
 @njit_no_refcount
@@ -120,6 +194,19 @@ def segment_velocity(
 
 
 @njit_no_refcount
+def contact_value(
+    row: FloatArray, thr: float, cb: float, sb: float, cm: float, sm: float, x0: float, ym: float
+) -> float:
+    """The contact event function of a pair (its gap with the edge's convex corners clipped
+    on, less the threshold ``thr``, D) at a state given by cos and sin of phi_B and phi_M
+    (for callers that check many pairs at one state)."""
+    g, _, _, _, _, _, _, _, _ = eval_pair(row, cb, sb, cm, sm, x0, ym)
+    if g > thr:
+        return g - thr
+    return clipped_gap(row, g, cb, sb, cm, sm, x0, ym) - thr
+
+
+@njit_no_refcount
 def event_value(
     seg: Segment, kind: int, idx: int, slot: int, thr: float, pb: float, pm: float, ym: float
 ) -> float:
@@ -129,13 +216,8 @@ def event_value(
     which a new contact counts (D).
     """
     if kind == E_CONTACT:
-        # The gap with the edge's convex corners clipped on (scan._contact_events).
         cb, sb, cm, sm = math.cos(pb), math.sin(pb), math.cos(pm), math.sin(pm)
-        row = seg.pairs[idx]
-        g, _, _, _, _, _, _, _, _ = eval_pair(row, cb, sb, cm, sm, seg.x0, ym)
-        if g > thr:
-            return g - thr
-        return clipped_gap(row, g, cb, sb, cm, sm, seg.x0, ym) - thr
+        return contact_value(seg.pairs[idx], thr, cb, sb, cm, sm, seg.x0, ym)
     if kind == E_RELEASE:
         _, _, l1, l2 = segment_velocity(seg, pb, pm, ym)
         lam = l1 if slot == 0 else l2
@@ -184,8 +266,8 @@ def _hermite_guess(
     NaN when the rates at the step's ends are not finite."""
     hi = step.h
     pb, pm, ym = step.phi_b, step.phi_m, step.y_m
-    v0b, v0m, _, _ = segment_velocity(seg, pb, pm, ym)
-    v1b, v1m, _, _ = segment_velocity(seg, nb, nm, ym - hi)
+    v0b, v0m, _, _ = start_velocity(seg, step)
+    v1b, v1m, _, _ = end_velocity(seg, nb, nm, ym - hi)
     if not math.isfinite(v0b + v0m + v1b + v1m):
         return math.nan
     a_lo, a_hi, fa_lo, fa_hi = 0.0, 1.0, f_lo, f_hi

@@ -91,9 +91,12 @@ def rk_step(
     winv_m: float,
     mu: float,
     slip: IntArray,
+    k1b: float,
+    k1m: float,
 ) -> tuple[float, float, float, float, bool]:
-    """One Dormand-Prince step of length h in descent; returns (pb, pm, err_b, err_m, ok)."""
-    k1b, k1m, _, _ = velocity(table, act, nact, pb, pm, x0, ym, sqb, sqm, mu, slip)
+    """One Dormand-Prince step of length h in descent from the start rate ``(k1b, k1m)``
+    (rad per D: :func:`~.motion.velocity` there, which every step from one start shares,
+    and the event searches take many); returns (pb, pm, err_b, err_m, ok)."""
     k2b, k2m, _, _ = velocity(
         table,
         act,

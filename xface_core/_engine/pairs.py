@@ -11,6 +11,25 @@ import math
 
 from .records import CORNER_REACH, TOUCH_WINDOW, U_CORNER, FloatArray, IntArray, njit_no_refcount
 
+#: Columns of the pair table the engine fills itself (:func:`fill_extents`): the largest
+#: distance (D) of the pair's vertex or edge ends from their pivots, and the edge's length.
+COL_REACH = 20
+COL_EDGE_LENGTH = 21
+#: Columns of a full pair table (:mod:`xface_core.contact`).
+PAIR_COLUMNS = 22
+
+
+@njit_no_refcount
+def fill_extents(table: FloatArray) -> None:
+    """Fill the reach and edge-length columns from the geometry columns of every pair: the
+    contact search asks for them at every step, and they never change."""
+    for i in range(table.shape[0]):
+        row = table[i]
+        row[COL_REACH] = max(
+            math.hypot(row[1], row[2]), math.hypot(row[3], row[4]), math.hypot(row[5], row[6])
+        )
+        row[COL_EDGE_LENGTH] = math.hypot(row[5] - row[3], row[6] - row[4])
+
 
 @njit_no_refcount
 def eval_pair(
@@ -149,9 +168,8 @@ def meets_part(
 def corner_distance(row: FloatArray, g: float, u: float) -> float:
     """Distance (D) from the pair's vertex to the nearer end corner of its edge, from the
     gap ``g`` and edge parameter ``u``."""
-    length = math.hypot(row[5] - row[3], row[6] - row[4])
     along = u if u < 0.5 else 1.0 - u
-    return math.hypot(g, along * length)
+    return math.hypot(g, along * row[COL_EDGE_LENGTH])
 
 
 @njit_no_refcount
@@ -317,7 +335,7 @@ def wedges_cross(row: FloatArray, cb: float, sb: float, cm: float, sm: float, x0
     wx, wy = _to_world(row, row[3], row[4], not moving_v, ck, sk, x0, y_m, True)
     dx, dy = vx - wx, vy - wy
     dist = math.hypot(dx, dy)
-    if dist <= CORNER_REACH or dist > 0.5 * math.hypot(row[5] - row[3], row[6] - row[4]):
+    if dist <= CORNER_REACH or dist > 0.5 * row[COL_EDGE_LENGTH]:
         return False
     return not _cone_admits(row, False, cv, sv, ck, sk, x0, y_m, dx, dy, margin, rays)
 

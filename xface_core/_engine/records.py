@@ -11,6 +11,7 @@ constants here, so the engine and the typed results cannot drift apart.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable
 from typing import Any, NamedTuple, TypeVar, cast
@@ -127,6 +128,10 @@ COARSE_SAMPLES = 3
 FINE_SAMPLES = 31
 FOLD_RISE = 1e-6  # D: a located turn's fold must lie this close to the turn's height
 FOLD_REACH = 1e-3  # D: solve_fold accepts a fold only this close to its start height
+#: Integration steps from one trial step's start remembered per segment (events.step_to):
+#: the event scan asks for the same state again and again (the trial step's end in every
+#: root search, a located event's state in the contact checks and in the advance to it).
+STEP_MEMO_SLOTS = 16
 
 
 class Model(NamedTuple):
@@ -164,8 +169,10 @@ class Options(NamedTuple):
     """Coulomb coefficient at every contact."""
 
 
+@functools.lru_cache(maxsize=64)
 def make_options(physics: Physics) -> Options:
-    """The engine's options for a validated :class:`~xface_core.physics.Physics`."""
+    """The engine's options for a validated :class:`~xface_core.physics.Physics` (cached:
+    both are immutable, and every prediction asks)."""
     s = physics.settings
     winv_b = 0.0 if math.isinf(physics.damping_ratio) else 1.0 / physics.damping_ratio
     winv_m = 1.0
@@ -237,7 +244,10 @@ class Work(NamedTuple):
     rays: FloatArray
     """(4, 2) scratch of the corner test (:func:`~.pairs.corner_motion_admissible`)."""
     samples: FloatArray
-    """(FINE_SAMPLES, 2) scratch: (phi_B, phi_M) at the samples inside a trial step."""
+    """(FINE_SAMPLES, 6) scratch: phi_B, phi_M and their cos and sin (cos phi_B, sin phi_B,
+    cos phi_M, sin phi_M) at the samples inside a trial step."""
+    step_memo: FloatArray
+    """(STEP_MEMO_SLOTS + 1, 18) steps integrated in this segment (:func:`~.events.step_to`)."""
 
 
 @njit(cache=True, nogil=True)
@@ -258,5 +268,6 @@ def new_work(model: Model, opts: Options) -> Work:
         np.full(4, -1, dtype=np.int64),
         np.full(2, FREE, dtype=np.int64),
         np.zeros((4, 2)),
-        np.zeros((FINE_SAMPLES, 2)),
+        np.zeros((FINE_SAMPLES, 6)),
+        np.zeros((STEP_MEMO_SLOTS + 1, 18)),
     )

@@ -14,14 +14,24 @@ from .events import (
     Event,
     Segment,
     Step,
+    contact_value,
     earlier,
-    event_value,
+    end_velocity,
     locate,
     segment_velocity,
+    start_velocity,
     step_to,
 )
 from .motion import slip_margin
-from .pairs import clipped_gap, eval_pair, pair_at, past_reflex_end, wedges_cross
+from .pairs import (
+    COL_EDGE_LENGTH,
+    COL_REACH,
+    clipped_gap,
+    eval_pair,
+    pair_at,
+    past_reflex_end,
+    wedges_cross,
+)
 from .records import (
     COARSE_SAMPLES,
     CORNER_REACH,
@@ -43,6 +53,9 @@ from .records import (
     njit_no_refcount,
 )
 
+#: cos and sin of phi_B, then of phi_M, at one state.
+Trig = tuple[float, float, float, float]
+
 
 @njit_no_refcount
 def _active_events(
@@ -52,7 +65,7 @@ def _active_events(
     changes sign through a pole), or its vertex leaves the edge."""
     y1 = step.y_m - step.h
     tol = opts.event_tol
-    _, _, l1, l2 = segment_velocity(seg, nb, nm, y1)
+    _, _, l1, l2 = end_velocity(seg, nb, nm, y1)
     for k in range(seg.n_active):
         pair = seg.act[k]
         lam = l1 if k == 0 else l2
@@ -61,7 +74,7 @@ def _active_events(
             kind = E_RELEASE
             pbk, pmk, _, _, _ = step_to(seg, step, lo)
             wb, wm, m1, m2 = segment_velocity(seg, pbk, pmk, step.y_m - lo)
-            sb, sm, s1, s2 = segment_velocity(seg, step.phi_b, step.phi_m, step.y_m)
+            sb, sm, s1, s2 = start_velocity(seg, step)
             pole = abs(m1 if k == 0 else m2) > 1e-6 * max(1.0, abs(s1 if k == 0 else s2))
             # With friction the forces also have a pole where the friction-turned normals
             # line up (the contacts wedge) while the rate stays finite: the path goes on,
@@ -124,10 +137,8 @@ def _contact_events(
     cb1, sb1, cm1, sm1 = math.cos(nb), math.sin(nb), math.cos(nm), math.sin(nm)
     # The states at the earliest event so far and two event widths before it, computed once
     # per candidate event and shared by every pair checked against it.
-    at_h = -1.0
-    at_b, at_m = step.phi_b, step.phi_m
-    early_h = -1.0
-    early_b, early_m = step.phi_b, step.phi_m
+    at_h, at = -1.0, (1.0, 0.0, 1.0, 0.0)  # cos and sin of the angles there
+    early_h, early = -1.0, at
     cb0, sb0, cm0, sm0 = (
         math.cos(step.phi_b),
         math.sin(step.phi_b),
@@ -135,6 +146,7 @@ def _contact_events(
         math.sin(step.phi_m),
     )
     crossed = False
+    rates = (-1.0, -1.0)  # _turn_rates, once a pair needs them
     for i in range(pairs.shape[0]):
         row = pairs[i]
         g1, u1, _, _, _, _, _, _, _ = eval_pair(row, cb1, sb1, cm1, sm1, x0, y1)
@@ -161,6 +173,10 @@ def _contact_events(
             u_est = u_prev[i] + (u1 - u_prev[i]) * (g_prev[i] - thr[i]) / (g_prev[i] - g1)
             if u_est < -0.25 or u_est > 1.25:
                 continue
+        if rates[0] < 0.0:
+            rates = _turn_rates(seg, step, nb, nm)
+        if _far_behind(seg, step, i, thr[i], rates, (cb0, sb0, cm0, sm0), (cb1, sb1, cm1, sm1)):
+            continue
         # Not crossed yet at the earliest event found so far: it cannot come first. Crossed
         # within two event widths before it: the same moment (contacts closing together,
         # as at a seat); the next interval's touching scan picks it up without a search of
@@ -168,17 +184,16 @@ def _contact_events(
         if best.kind != E_NONE:
             if at_h != best.h:
                 at_b, at_m, _, _, _ = step_to(seg, step, best.h)
+                at = (math.cos(at_b), math.sin(at_b), math.cos(at_m), math.sin(at_m))
                 at_h = best.h
-            if event_value(seg, E_CONTACT, i, 0, thr[i], at_b, at_m, step.y_m - at_h) > 0.0:
+            if contact_value(row, thr[i], *at, x0, step.y_m - at_h) > 0.0:
                 continue
             t_early = max(best.h - 2.0 * tol, 0.0)
             if early_h != best.h:
                 early_b, early_m, _, _, _ = step_to(seg, step, t_early)
+                early = (math.cos(early_b), math.sin(early_b), math.cos(early_m), math.sin(early_m))
                 early_h = best.h
-            if (
-                event_value(seg, E_CONTACT, i, 0, thr[i], early_b, early_m, step.y_m - t_early)
-                > 0.0
-            ):
+            if contact_value(row, thr[i], *early, x0, step.y_m - t_early) > 0.0:
                 continue
         _, hk = locate(seg, step, tol, E_CONTACT, i, 0, thr[i])
         if best.kind != E_NONE and hk >= best.h:
@@ -202,6 +217,125 @@ def _is_contact(seg: Segment, step: Step, i: int, hk: float, thr: float) -> bool
 
 
 @njit_no_refcount
+def _turn_rates(seg: Segment, step: Step, nb: float, nm: float) -> tuple[float, float]:
+    """Bounds on how fast phi_B and phi_M turn (rad per D of descent) anywhere inside the
+    trial step ending at ``(nb, nm)``: twice the largest of the rates at its ends and its
+    mean rate. An accepted step's rate changes little (its error is within rtol); infinite
+    when a rate is not finite."""
+    v0b, v0m, _, _ = start_velocity(seg, step)
+    v1b, v1m, _, _ = end_velocity(seg, nb, nm, step.y_m - step.h)
+    rate_b = 2.0 * max(abs(v0b), abs(v1b), abs(nb - step.phi_b) / step.h)
+    rate_m = 2.0 * max(abs(v0m), abs(v1m), abs(nm - step.phi_m) / step.h)
+    if not math.isfinite(rate_b + rate_m):
+        return math.inf, math.inf
+    return rate_b, rate_m
+
+
+@njit_no_refcount
+def _gap_bounds(
+    seg: Segment, step: Step, i: int, rates: tuple[float, float], pieces: int, start: Trig,
+    end: Trig,
+) -> tuple[float, float, float, float]:  # fmt: skip
+    """Bounds (D) on pair i's plain gap anywhere in the trial step, from its values at
+    ``pieces + 1`` evenly spaced states (the step's ends and ``step_to`` in between) and
+    how fast it can change: ``(floor, ceiling, smallest, largest)``, the last two of the
+    gap at those states.
+
+    Between two states ``dt`` apart the gap g is Lipschitz in the descent: |dg/ds| <=
+    |dg/dy_M| + |dg/dphi_B| r_B + |dg/dphi_M| r_M, with |dg/dy_M| <= 1, the angle
+    derivatives bounded by their larger value at the two states plus how far they can change
+    in ``dt`` (the vertex's travel: the descent and its turn about both pivots), and the turn
+    rates r bounded by ``rates`` (rad per D, :func:`_turn_rates`) over the whole step, or, in
+    a piece of it, like them from the rates at the piece's ends and its mean rate. From both
+    ends of a piece, g stays between ``(g_a + g_b -+ Lip dt) / 2`` there (or the end values).
+    ``start``, ``end``: cos and sin of phi_B and phi_M at the step's ends (the callers have
+    them).
+    """
+    row, x0 = seg.pairs[i], seg.x0
+    dt = step.h / pieces
+    arm = math.hypot(row[1], row[2])  # the vertex from its own pivot (D)
+    g_top, g_low, g_ceiling, g_floor = -math.inf, math.inf, -math.inf, math.inf
+    # The previous state: gap, |dg/dphi| (D/rad), the vertex from the edge's pivot (D),
+    # angles and rates.
+    g_a, ab_a, am_a, lever_a, pb_a, pm_a, vb_a, vm_a = 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    for k in range(pieces + 1):
+        pb, pm = step.phi_b, step.phi_m
+        if k > 0:
+            pb, pm, _, _, _ = step_to(seg, step, step.h if k == pieces else k * dt)
+        y = step.y_m - (step.h if k == pieces else k * dt)
+        cb, sb, cm, sm = start if k == 0 else end
+        if 0 < k < pieces:
+            cb, sb, cm, sm = math.cos(pb), math.sin(pb), math.cos(pm), math.sin(pm)
+        g, _, ab, am, _, px, py, _, _ = eval_pair(row, cb, sb, cm, sm, x0, y)
+        lever = math.hypot(px, py) if row[0] == 0.0 else math.hypot(px - x0, py - y)
+        vb, vm = 0.0, 0.0
+        if pieces > 1:
+            if k == 0:
+                vb, vm, _, _ = start_velocity(seg, step)
+            elif k == pieces:
+                vb, vm, _, _ = end_velocity(seg, pb, pm, y)
+            else:
+                vb, vm, _, _ = segment_velocity(seg, pb, pm, y)
+        g_top, g_low = max(g_top, g), min(g_low, g)
+        if k > 0:
+            rate_b, rate_m = rates
+            if pieces > 1:
+                rate_b = 2.0 * max(abs(vb_a), abs(vb), abs(pb - pb_a) / dt)
+                rate_m = 2.0 * max(abs(vm_a), abs(vm), abs(pm - pm_a) / dt)
+                if not math.isfinite(rate_b + rate_m):
+                    return -math.inf, math.inf, g_low, g_top
+            turn = (rate_b + rate_m) * dt
+            reach_e = max(lever_a, lever) + dt + arm * turn
+            change = dt + (arm + reach_e) * turn  # how far either derivative can move
+            lip = 1.0 + (max(ab_a, abs(ab)) + change) * rate_b
+            lip += (max(am_a, abs(am)) + change) * rate_m
+            g_ceiling = max(g_ceiling, 0.5 * (g_a + g + lip * dt))
+            g_floor = min(g_floor, 0.5 * (g_a + g - lip * dt))
+        g_a, ab_a, am_a, lever_a = g, abs(ab), abs(am), lever
+        pb_a, pm_a, vb_a, vm_a = pb, pm, vb, vm
+    return min(g_low, g_floor), max(g_top, g_ceiling), g_low, g_top
+
+
+@njit_no_refcount
+def _far_behind(
+    seg: Segment, step: Step, i: int, thr: float, rates: tuple[float, float], start: Trig,
+    end: Trig,
+) -> bool:  # fmt: skip
+    """Is pair i's vertex behind its edge's line by more than CORNER_REACH below its
+    threshold all through the trial step (its parts turning at most at ``rates``)?
+
+    Then no crossing of its contact function located in the step is a contact
+    (:func:`_is_contact` wants the plain gap within CORNER_REACH of the threshold), and its
+    search can be skipped with the same result. Such pairs are common: a vertex held on one
+    edge is behind the line of the neighbouring edge, whose clipped gap is then the held
+    gap, zero to round-off, and its root search bisected that noise (some 30 steps each).
+    The bound (:func:`_gap_bounds`) is tried from the step's ends, then from its quarters
+    (three more states, remembered by ``step_to`` for every pair of the step).
+    """
+    floor = thr - CORNER_REACH
+    _, ceiling, _, g_top = _gap_bounds(seg, step, i, rates, 1, start, end)
+    if ceiling < floor:
+        return True
+    if g_top >= floor:
+        return False
+    _, ceiling, _, _ = _gap_bounds(seg, step, i, rates, 4, start, end)
+    return ceiling < floor
+
+
+@njit_no_refcount
+def _far_outside(
+    seg: Segment, step: Step, i: int, thr: float, rates: tuple[float, float], start: Trig,
+    end: Trig,
+) -> bool:  # fmt: skip
+    """Does pair i's plain gap stay above its threshold all through the trial step (its
+    parts turning at most at ``rates``)? Then its contact function (the clipped gap, never
+    below the plain one) is positive at every state inside the step: sampling it there
+    finds nothing, and :func:`_contacts_inside_step` skips it with the same result."""
+    floor, _, _, _ = _gap_bounds(seg, step, i, rates, 1, start, end)
+    return floor > thr
+
+
+@njit_no_refcount
 def _contacts_before(opts: Options, seg: Segment, step: Step, work: Work, best: Event) -> Event:
     """A contact that came before the event found, though the trial step's end did not show
     it: a vertex that went in past a corner and out again within the step. At the event's
@@ -216,17 +350,23 @@ def _contacts_before(opts: Options, seg: Segment, step: Step, work: Work, best: 
             return best
         head = Step(step.phi_b, step.phi_m, step.y_m, best.h)
         eb, em, _, _, _ = step_to(seg, step, best.h)
+        at_event = (math.cos(eb), math.sin(eb), math.cos(em), math.sin(em))
+        rates = (-1.0, -1.0)  # _turn_rates of the head, once a pair needs them
         earliest = best
         for i in range(pairs.shape[0]):
             if (n_act > 0 and act[0] == i) or (n_act > 1 and act[1] == i):
                 continue
-            if event_value(seg, E_CONTACT, i, 0, thr[i], eb, em, step.y_m - best.h) > 0.0:
+            if contact_value(pairs[i], thr[i], *at_event, x0, step.y_m - best.h) > 0.0:
                 continue
             row = pairs[i]
             if g_prev[i] <= thr[i] and (
                 clipped_gap(row, g_prev[i], cb0, sb0, cm0, sm0, x0, step.y_m) <= thr[i]
             ):
                 continue  # inside at the start already: no crossing in this step
+            if rates[0] < 0.0:
+                rates = _turn_rates(seg, head, eb, em)
+            if _far_behind(seg, head, i, thr[i], rates, (cb0, sb0, cm0, sm0), at_event):
+                continue
             _, hk = locate(seg, head, opts.event_tol, E_CONTACT, i, 0, thr[i])
             if hk >= earliest.h:
                 continue
@@ -241,7 +381,7 @@ def _contacts_before(opts: Options, seg: Segment, step: Step, work: Work, best: 
 @njit_no_refcount
 def _reach(row: FloatArray) -> float:
     """Largest distance (D) of the pair's vertex or edge ends from their pivots."""
-    return max(math.hypot(row[1], row[2]), math.hypot(row[3], row[4]), math.hypot(row[5], row[6]))
+    return float(row[COL_REACH])
 
 
 @njit_no_refcount
@@ -256,8 +396,7 @@ def _segment_distance(row: FloatArray, g: float, u: float) -> float:
     """Distance (D) of the pair's vertex from its edge (the segment, not the line)."""
     if 0.0 <= u <= 1.0:
         return abs(g)
-    length = math.hypot(row[5] - row[3], row[6] - row[4])
-    return math.hypot(g, (u if u < 0.0 else u - 1.0) * length)
+    return math.hypot(g, (u if u < 0.0 else u - 1.0) * row[COL_EDGE_LENGTH])
 
 
 @njit_no_refcount
@@ -298,11 +437,14 @@ def _contacts_inside_step(
     y1 = step.y_m - step.h
     cb1, sb1, cm1, sm1 = math.cos(nb), math.sin(nb), math.cos(nm), math.sin(nm)
     sampled = False
+    rates = (-1.0, -1.0)  # _turn_rates, once a pair needs them
     for i in range(pairs.shape[0]):
         if (n_act > 0 and act[0] == i) or (n_act > 1 and act[1] == i):
             continue
         row = pairs[i]
         bound = _travel(row, h_end, turn)
+        if abs(g_prev[i]) > bound and abs(g_next[i]) > bound:
+            continue  # the segment is no nearer than the line (spares the hypot below)
         if (
             min(
                 _segment_distance(row, g_prev[i], u_prev[i]),
@@ -315,26 +457,33 @@ def _contacts_inside_step(
             continue  # crossed by the step's end: _contact_events' case
         if clipped_gap(row, g_prev[i], cb0, sb0, cm0, sm0, x0, step.y_m) <= thr[i]:
             continue  # inside at the start already
+        if rates[0] < 0.0:
+            rates = _turn_rates(seg, step, nb, nm)
+        start, end = (cb0, sb0, cm0, sm0), (cb1, sb1, cm1, sm1)
+        if _far_outside(seg, step, i, thr[i], rates, start, end) or _far_behind(
+            seg, step, i, thr[i], rates, start, end
+        ):
+            continue
         if not sampled:
             # The states at the samples, computed once and shared by every pair.
             for k in range(n_samples):
                 sb_k, sm_k, _, _, _ = step_to(seg, step, (k + 1) / (n_samples + 1) * h_end)
                 samples[k, 0], samples[k, 1] = sb_k, sm_k
+                samples[k, 2], samples[k, 3] = math.cos(sb_k), math.sin(sb_k)
+                samples[k, 4], samples[k, 5] = math.cos(sm_k), math.sin(sm_k)
             sampled = True
         for k in range(n_samples):
             t = (k + 1) / (n_samples + 1) * h_end
-            if event_value(seg, E_CONTACT, i, 0, thr[i], samples[k, 0], samples[k, 1],
-                           step.y_m - t) > 0.0:  # fmt: skip
+            at_sample = (samples[k, 2], samples[k, 3], samples[k, 4], samples[k, 5])
+            if contact_value(row, thr[i], *at_sample, x0, step.y_m - t) > 0.0:
                 continue
-            _, hk = locate(
-                seg,
-                Step(step.phi_b, step.phi_m, step.y_m, t),
-                opts.event_tol,
-                E_CONTACT,
-                i,
-                0,
-                thr[i],
-            )
+            head = Step(step.phi_b, step.phi_m, step.y_m, t)
+            # The search runs over the head of the step up to this sample: far behind there
+            # (screened again over that shorter head), its crossing is no contact.
+            head_rates = _turn_rates(seg, head, samples[k, 0], samples[k, 1])
+            if _far_behind(seg, head, i, thr[i], head_rates, (cb0, sb0, cm0, sm0), at_sample):
+                break
+            _, hk = locate(seg, head, opts.event_tol, E_CONTACT, i, 0, thr[i])
             if best.kind != E_NONE and hk >= best.h:
                 break
             if _is_contact(seg, step, i, hk, thr[i]):
@@ -361,9 +510,12 @@ def _crossing(
     :func:`~.pairs.wedges_cross`: no vertex is inside the other part then, so no contact
     function shows it; the vertex that went in and out again on the way did, inside the
     step. That test looks within half an edge of the corner, so |u| <= 1/2 and
-    |g| <= half the edge's length: both screen the pair first.
+    |g| <= half the edge's length: both screen the pair first, and so does the vertex's
+    distance from the corner, ``hypot(u * length, g)`` (to 2 % of it: its test takes the
+    distance from the world positions, equal to round-off).
     """
-    if abs(u) > 0.5 or g * g > 0.25 * ((row[5] - row[3]) ** 2 + (row[6] - row[4]) ** 2):
+    length2 = (row[5] - row[3]) ** 2 + (row[6] - row[4]) ** 2
+    if abs(u) > 0.5 or g * g > 0.25 * length2 or u * u * length2 + g * g > 0.26 * length2:
         return False
     margin = TOUCH_WINDOW * opts.touch_tol
     cb, sb, cm, sm, y = now
@@ -391,8 +543,7 @@ def _crossed_at_event(opts: Options, seg: Segment, step: Step, work: Work, nb: f
         # at the event (twice the vertex's travel relative to the edge bounds the change of
         # u times the edge's length).
         travel = 2.0 * _travel(row, best.h, turn)
-        length = math.hypot(row[5] - row[3], row[6] - row[4])
-        if min(abs(u_prev[i]), abs(u_next[i])) - 0.5 > travel / length:
+        if min(abs(u_prev[i]), abs(u_next[i])) - 0.5 > travel / row[COL_EDGE_LENGTH]:
             continue
         g, u, _, _, _, _, _, _, _ = eval_pair(row, now[0], now[1], now[2], now[3], x0, ey)
         if _crossing(opts, rays, row, g, u, now, start, x0):

@@ -11,7 +11,7 @@ import math
 from numba import njit
 
 from .ends import Run, end_at_rest, end_run, record
-from .events import Event, Segment, Step, step_to
+from .events import Event, Segment, Step, clear_step_memo, step_to
 from .folds import cuts_in, solve_fold
 from .integrate import project
 from .pairs import eval_all_pairs
@@ -77,9 +77,10 @@ def begin_segment(
         g_prev[i] = g
         u_prev[i] = ev[i, 1]
     record(run, path, path_pairs, _phase(run), act, n)
+    clear_step_memo(work.step_memo)
     return Segment(
         model.pairs, act, n, opts.friction, work.slip, run.x0, run.y_floor, opts.sqrt_winv_b,
-        opts.sqrt_winv_m, opts.winv_b, opts.winv_m,
+        opts.sqrt_winv_m, opts.winv_b, opts.winv_m, work.step_memo,
     )  # fmt: skip
 
 

@@ -17,8 +17,8 @@ import pytest
 
 import xface_core as xf
 from xface_core._engine.events import Segment, Step
-from xface_core._engine.pairs import pair_at
-from xface_core._engine.records import FREE
+from xface_core._engine.pairs import fill_extents, pair_at
+from xface_core._engine.records import FREE, STEP_MEMO_SLOTS
 from xface_core.contact import pair_table
 
 #: Columns of the engine's pair table; hand-built rows fill the first ten (kind, vertex, edge,
@@ -75,7 +75,7 @@ class Incline:
         slip = np.full(2, FREE, dtype=np.int64)
         return Segment(
             self.table, act, n_active, 0.0, slip, self.x0, y_floor,
-            math.sqrt(winv_b), 1.0, winv_b, 1.0,
+            math.sqrt(winv_b), 1.0, winv_b, 1.0, np.zeros((STEP_MEMO_SLOTS + 1, 18)),
         )  # fmt: skip
 
     def step(self, h: float) -> Step:
@@ -98,6 +98,7 @@ def _incline() -> Incline:
     flat = np.array([0.0, vx, vy, 1.5, height, -1.5, height, 0.0, 1.0, 0.0])
     table = np.zeros((2, TABLE_WIDTH))
     table[:, :10] = (slope, flat)
+    fill_extents(table)
     return Incline(table, x0, phi_m0, y0, s_touch)
 
 

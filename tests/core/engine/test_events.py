@@ -8,13 +8,16 @@ import pytest
 
 from xface_core._engine.events import (
     NO_EVENT,
+    START_RATE,
     Event,
+    clear_step_memo,
     earlier,
     event_value,
     locate,
     segment_velocity,
     step_to,
 )
+from xface_core._engine.integrate import rk_step
 from xface_core._engine.pairs import pair_at
 from xface_core._engine.records import (
     E_BELOW_SEAT,
@@ -22,6 +25,7 @@ from xface_core._engine.records import (
     E_OFF_EDGE,
     E_RELEASE,
     E_SPUN,
+    STEP_MEMO_SLOTS,
     U_TOL,
 )
 
@@ -117,3 +121,35 @@ def test_earlier_keeps_the_smaller_descent() -> None:
 def test_earlier_keeps_the_first_found_on_a_tie() -> None:
     first, second = Event(E_RELEASE, 1, 0.1), Event(E_CONTACT, 3, 0.1)
     assert earlier(second, first) == first
+
+
+def _fresh_step(seg, step, t: float) -> tuple[float, float, float, float, bool]:
+    """The step without the memo: a plain Dormand-Prince step from the start."""
+    k1b, k1m, _, _ = segment_velocity(seg, step.phi_b, step.phi_m, step.y_m)
+    return rk_step(
+        seg.pairs, seg.act, seg.n_active, step.phi_b, step.phi_m, seg.x0, step.y_m, t,
+        seg.sqrt_winv_b, seg.sqrt_winv_m, seg.winv_b, seg.winv_m, seg.mu, seg.slip, k1b, k1m,
+    )  # fmt: skip
+
+
+def test_remembered_steps_are_the_steps_bit_for_bit(incline) -> None:
+    seg = incline.segment()
+    step = incline.step(0.02)
+    # More lengths than slots, asked twice each, the second round out of order: every
+    # answer (remembered, or computed again after the ring wrapped) is the plain step's.
+    lengths = [0.02 * (k + 1) / 23 for k in range(23)]
+    for t in [*lengths, *reversed(lengths), *lengths[::3]]:
+        assert step_to(seg, step, t) == _fresh_step(seg, step, t)
+    assert seg.step_memo[0, 0] == STEP_MEMO_SLOTS  # full
+
+
+def test_a_new_start_or_segment_is_not_answered_from_the_memo(incline) -> None:
+    seg = incline.segment()
+    step = incline.step(0.02)
+    first = step_to(seg, step, 0.01)
+    moved = step._replace(phi_m=step.phi_m + 1e-3, y_m=step.y_m - 1e-3)
+    assert step_to(seg, moved, 0.01) == _fresh_step(seg, moved, 0.01) != first
+    clear_step_memo(seg.step_memo)
+    assert seg.step_memo[0, 0] == 0.0
+    assert seg.step_memo[0, START_RATE + 7] == 0.0  # the start's rate is forgotten too
+    assert step_to(seg, step, 0.01) == first

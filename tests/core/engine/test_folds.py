@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from xface_core._engine.folds import cuts_in, det3, fold_residual, solve3, solve_fold
-from xface_core._engine.pairs import pair_at
+from xface_core._engine.pairs import fill_extents, pair_at
 from xface_core._engine.records import CUT_DEPTH
 
 
@@ -54,6 +54,7 @@ def fold_table(incline) -> np.ndarray:
     table = np.zeros((2, incline.table.shape[1]))  # the engine's row width
     table[0, :9] = [0.0, 0.0, 0.0, 1.0, 1.0, -1.0, 1.0, 0.0, 1.0]
     table[1, :9] = [1.0, 0.0, 0.0, -1.0, 0.0, 1.0, 0.0, 0.0, -1.0]
+    fill_extents(table)
     return table
 
 

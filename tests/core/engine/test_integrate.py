@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from xface_core._engine.integrate import project, rk_step
+from xface_core._engine.motion import velocity
 from xface_core._engine.pairs import pair_at
 from xface_core._engine.records import FREE
 from xface_core.physics import DEFAULT_SETTINGS
@@ -20,9 +21,11 @@ def _step(incline, h: float, *, projected: bool = True) -> tuple[float, float, f
     projection is given no metric to move in (W^-1 = 0), leaving the bare Dormand-Prince
     step; the rate itself uses the held base's W^-1 = diag(0, 1) either way."""
     w = 1.0 if projected else 0.0
+    k1b, k1m, _, _ = velocity(incline.table, ONE, 1, 0.0, incline.phi_m0, incline.x0,
+                              incline.y0, 0.0, 1.0, 0.0, NO_SLIP)  # fmt: skip
     return rk_step(
         incline.table, ONE, 1, 0.0, incline.phi_m0, incline.x0, incline.y0, h,
-        0.0, 1.0, 0.0, w, 0.0, NO_SLIP,
+        0.0, 1.0, 0.0, w, 0.0, NO_SLIP, k1b, k1m,
     )  # fmt: skip
 
 

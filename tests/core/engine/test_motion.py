@@ -21,7 +21,7 @@ from xface_core._engine.motion import (
     tangent,
     velocity,
 )
-from xface_core._engine.pairs import eval_all_pairs, pair_at
+from xface_core._engine.pairs import eval_all_pairs, fill_extents, pair_at
 from xface_core._engine.records import (
     FREE,
     SLIDE_NEGATIVE,
@@ -311,7 +311,9 @@ def _with_corner(incline, direction: float, u_end: float = 1.0):
     normal = np.array([0.0, -direction])
     corner = np.zeros(incline.table.shape[1])
     corner[:9] = [0.0, 0.0, 0.0, *(body @ start), *(body @ tip), *(body @ normal)]
-    return np.vstack((incline.table[:1], corner)), state
+    table = np.vstack((incline.table[:1], corner))
+    fill_extents(table)  # the derived columns of the new row
+    return table, state
 
 
 def _choose(table: np.ndarray, state) -> tuple[tuple, np.ndarray, np.ndarray]:

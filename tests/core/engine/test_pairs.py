@@ -12,8 +12,12 @@ from hypothesis import strategies as st
 import xface_core as xf
 from xface_core._engine.overlap import overlapping
 from xface_core._engine.pairs import (
+    COL_EDGE_LENGTH,
+    COL_REACH,
+    PAIR_COLUMNS,
     eval_all_pairs,
     eval_pair,
+    fill_extents,
     fill_u_rate,
     next_contact,
     pair_at,
@@ -197,8 +201,20 @@ def test_touching_pairs_window_and_exclusions() -> None:
     cand = np.full(16, -1, dtype=np.int64)
     exclude = np.array([5, -1], dtype=np.int64)
     # Unit edges with reflex (unflagged) ends: no neighbour masks a pair.
-    table = np.zeros((6, 20))
+    table = np.zeros((6, PAIR_COLUMNS))
     table[:, 3:7] = [0.0, 0.0, 1.0, 0.0]
+    fill_extents(table)
     n = touching_pairs(table, ev, 0.0, 0.0, 0.0, 2.0, tol, exclude, 1, cand)
     # 2: too far, 3: too deep, 4: beyond the edge's start, 5: excluded.
     assert cand[:n].tolist() == [0, 1]
+
+
+def test_the_extents_are_the_pairs_reach_and_edge_length() -> None:
+    table = pair_table(xf.x_face(0.5, 1.0)).data
+    for row in table:
+        reach = max(math.hypot(row[1], row[2]), math.hypot(row[3], row[4]),
+                    math.hypot(row[5], row[6]))  # fmt: skip
+        assert row[COL_REACH] == pytest.approx(reach, rel=1e-15)
+        assert row[COL_EDGE_LENGTH] == pytest.approx(
+            math.hypot(row[5] - row[3], row[6] - row[4]), rel=1e-15
+        )

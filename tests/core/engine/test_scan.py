@@ -5,18 +5,23 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from xface_core._engine.events import step_to
-from xface_core._engine.pairs import eval_all_pairs
+import xface_core as xf
+from xface_core._engine.events import Segment, Step, step_to
+from xface_core._engine.pairs import eval_all_pairs, pair_at
 from xface_core._engine.records import (
+    CORNER_REACH,
     E_BELOW_SEAT,
     E_CONTACT,
     E_NONE,
     FINE_SAMPLES,
+    FREE,
+    STEP_MEMO_SLOTS,
     Work,
     make_options,
 )
-from xface_core._engine.scan import find_event
+from xface_core._engine.scan import _far_behind, _far_outside, _gap_bounds, _turn_rates, find_event
 from xface_core.physics import Physics
+from xface_core.runner import engine_model
 
 OPTS = make_options(Physics())
 
@@ -33,7 +38,7 @@ def _work(table: np.ndarray, pb: float, pm: float, x0: float, ym: float) -> Work
         ev, ev[:, 0].copy(), ev[:, 1].copy(), np.zeros(n), np.zeros(n), thr,
         np.zeros(16, dtype=np.int64), np.full(8, -1, dtype=np.int64),
         np.array([0, -1, -1, -1], dtype=np.int64), np.zeros(2, dtype=np.int64),
-        np.zeros((4, 2)), np.zeros((FINE_SAMPLES, 2)),
+        np.zeros((4, 2)), np.zeros((FINE_SAMPLES, 6)), np.zeros((STEP_MEMO_SLOTS + 1, 18)),
     )  # fmt: skip
 
 
@@ -80,3 +85,67 @@ def test_a_line_crossed_far_beside_its_edge_is_no_contact(incline) -> None:
     table[1, 5] = 1.0
     ev, _, _ = _scan(incline, 0.05, table=table)
     assert ev.kind == E_NONE
+
+
+def _segments_of_a_dock(design, x0: float, theta0: float):
+    """(segment, step start) at every path sample of a dock with contacts held."""
+    p = xf.predict(design, x0 * design.width, theta0)
+    model = engine_model(design)
+    opts = make_options(Physics())
+    y0 = p.y_start / design.width
+    for k in range(len(p.path.descent)):
+        act = np.full(4, -1, dtype=np.int64)
+        held = [int(j) for j in p.path.contact_pairs[k] if j >= 0]
+        if not held:
+            continue
+        act[: len(held)] = held
+        seg = Segment(
+            model.pairs, act, len(held), 0.0, np.full(2, FREE, dtype=np.int64), x0, -np.inf,
+            opts.sqrt_winv_b, opts.sqrt_winv_m, opts.winv_b, opts.winv_m,
+            np.zeros((STEP_MEMO_SLOTS + 1, 18)),
+        )  # fmt: skip
+        y = y0 - p.path.descent[k] / design.width
+        yield seg, Step(float(p.path.phi_b[k]), float(p.path.phi_m[k]), float(y), 0.0)
+
+
+@pytest.mark.parametrize(
+    ("design", "x0", "theta0"),
+    [
+        (xf.x_face(0.25, 2.0), 0.3, 0.2),
+        (xf.s_face(0.5, 1.0), 0.1, -0.2),
+        (xf.v_face(0.5, 1.0), 0.2, 0.3),
+    ],
+)
+def test_the_gap_never_rises_above_its_ceiling_in_a_step(design, x0, theta0) -> None:
+    # The far-behind screen skips a pair's contact search only below this ceiling: on real
+    # segments (every held set of three docks, steps up to the longest the engine takes),
+    # the plain gap at 64 states inside the step stays under it, from the ends and from
+    # the quarters alike.
+    checked = 0
+    for seg, start in _segments_of_a_dock(design, x0, theta0):
+        for h in (0.002, 0.01, 0.05):
+            step = start._replace(h=h)
+            nb, nm, _, _, ok = step_to(seg, step, h)
+            if not ok:
+                continue
+            rates = _turn_rates(seg, step, nb, nm)
+            ends = (
+                (np.cos(step.phi_b), np.sin(step.phi_b), np.cos(step.phi_m), np.sin(step.phi_m)),
+                (np.cos(nb), np.sin(nb), np.cos(nm), np.sin(nm)),
+            )
+            for i in range(seg.pairs.shape[0]):
+                top, low = -np.inf, np.inf
+                for t in np.linspace(0.0, h, 64):
+                    pb, pm, _, _, _ = step_to(seg, step, t)
+                    g = pair_at(seg.pairs, i, pb, pm, seg.x0, step.y_m - t)[0]
+                    top, low = max(top, g), min(low, g)
+                for pieces in (1, 4):
+                    floor, ceiling, _, _ = _gap_bounds(seg, step, i, rates, pieces, *ends)
+                    assert floor <= low
+                    assert top <= ceiling
+                if _far_behind(seg, step, i, 0.0, rates, *ends):
+                    assert top < -CORNER_REACH
+                if _far_outside(seg, step, i, 0.0, rates, *ends):
+                    assert low > 0.0
+                checked += 1
+    assert checked > 100
