@@ -1,5 +1,6 @@
 """Studies on a Dask cluster: a LocalCluster on loopback (two worker processes; its HTTP
-server, which dashboard_address=None does not turn off, on a free loopback port) gives the same table as local processes, through the API and through ``--scheduler``."""
+server, which dashboard_address=None does not turn off, on a free loopback port) gives the
+same table as local processes, through the API and through ``--scheduler``."""
 
 from __future__ import annotations
 
