@@ -298,11 +298,30 @@ def _hermite_guess(
 
 
 @njit_no_refcount
+def closing_probe(estimate: float, lo: float, hi: float, side: int, tol: float) -> float:
+    """Where to probe a bracket ``[lo, hi]`` wider than ``tol`` given the root finder's
+    ``estimate``; ``side``: the end the last probe moved (1 ``lo``, -1 ``hi``, 0 none yet).
+
+    Regula falsi, even Illinois, approaches a zero from one side: the end it moves
+    converges, the other one stays, and the bracket shrinks below ``tol`` only when an
+    estimate is thrown across the zero, after a dozen or more probes that barely move the
+    converged end. The probe therefore goes half a tolerance past the estimate towards the
+    end that stayed (an estimate within half a tolerance of the zero lands across it and
+    closes the bracket), and never nearer than half a tolerance to either end (a converged
+    end is crossed at once): the safeguards of Brent's method and of SUNDIALS' root finding.
+    The zero stays bracketed; the located event moves within the tolerance.
+    """
+    t = estimate + 0.5 * tol * side
+    return min(max(t, lo + 0.5 * tol), hi - 0.5 * tol)
+
+
+@njit_no_refcount
 def locate(
     seg: Segment, step: Step, event_tol: float, kind: int, idx: int, slot: int, thr: float
 ) -> tuple[float, float]:
     """Step lengths ``(lo, hi)`` bracketing the zero of an event function to ``event_tol``:
-    before the event and just after it (Illinois method).
+    before the event and just after it (the Illinois method, each probe moved by
+    :func:`closing_probe` so that the bracket closes).
 
     The event function is evaluated on the state after one integration step of the trial
     length from the same start, so the located point lies on the integrated path. An event
@@ -346,6 +365,7 @@ def locate(
                 mid = 0.5 * (lo + hi)
         else:
             mid = 0.5 * (lo + hi)
+        mid = closing_probe(mid, lo, hi, side, event_tol)
         f_mid = event_after(seg, step, kind, idx, slot, thr, mid)
         if math.isfinite(f_mid) and f_mid > 0.0:
             lo, f_lo = mid, f_mid

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import pytest
 
@@ -11,6 +12,7 @@ from xface_core._engine.events import (
     START_RATE,
     Event,
     clear_step_memo,
+    closing_probe,
     earlier,
     event_value,
     locate,
@@ -153,3 +155,75 @@ def test_a_new_start_or_segment_is_not_answered_from_the_memo(incline) -> None:
     assert seg.step_memo[0, 0] == 0.0
     assert seg.step_memo[0, START_RATE + 7] == 0.0  # the start's rate is forgotten too
     assert step_to(seg, step, 0.01) == first
+
+
+def _illinois(
+    f: Callable[[float], float], lo: float, hi: float, tol: float, closing: bool
+) -> tuple[float, float, int]:
+    """locate's bracketing loop on a plain function, with or without the closing probe:
+    the final bracket and the number of evaluations."""
+    f_lo, f_hi, n, side = f(lo), f(hi), 2, 0
+    while hi - lo > tol:
+        mid = hi - f_hi * (hi - lo) / (f_hi - f_lo)
+        if not (lo < mid < hi):
+            mid = 0.5 * (lo + hi)
+        if closing:
+            mid = closing_probe(mid, lo, hi, side, tol)
+        f_mid = f(mid)
+        n += 1
+        if f_mid > 0.0:
+            lo, f_lo = mid, f_mid
+            f_hi *= 0.5 if side == 1 else 1.0
+            side = 1
+        else:
+            hi, f_hi = mid, f_mid
+            f_lo *= 0.5 if side == -1 else 1.0
+            side = -1
+    return lo, hi, n
+
+
+ROOT = 0.0123456789
+TEST_FUNCTIONS: dict[str, Callable[[float], float]] = {
+    "linear": lambda t: ROOT - t,
+    "convex": lambda t: math.exp(-30.0 * t) - math.exp(-30.0 * ROOT),
+    "concave": lambda t: math.log1p(ROOT) - math.log1p(t),
+    "cubic": lambda t: (ROOT - t) + 40.0 * (ROOT - t) ** 3,
+    "sqrt": lambda t: math.sqrt(0.05 - t) - math.sqrt(0.05 - ROOT),
+}
+
+
+def test_the_closing_probe_keeps_half_a_tolerance_from_either_end() -> None:
+    assert closing_probe(0.3, 0.3, 1.0, 0, 0.1) == pytest.approx(0.35)
+    assert closing_probe(1.0, 0.3, 1.0, 0, 0.1) == pytest.approx(0.95)
+    assert closing_probe(0.6, 0.3, 1.0, 0, 0.1) == 0.6
+
+
+def test_the_closing_probe_steps_past_the_estimate_towards_the_end_that_stayed() -> None:
+    # lo moved last: hi stayed, the probe goes half a tolerance towards it; and back.
+    assert closing_probe(0.6, 0.3, 1.0, 1, 0.1) == pytest.approx(0.65)
+    assert closing_probe(0.6, 0.3, 1.0, -1, 0.1) == pytest.approx(0.55)
+
+
+@pytest.mark.parametrize("name", sorted(TEST_FUNCTIONS))
+def test_the_closing_root_search_brackets_the_zero_to_the_tolerance(name: str) -> None:
+    lo, hi, _ = _illinois(TEST_FUNCTIONS[name], 0.0, 0.05, EVENT_TOL, closing=True)
+    assert 0.0 < hi - lo <= EVENT_TOL
+    assert lo <= ROOT <= hi
+
+
+@pytest.mark.parametrize("name", ["linear", "convex", "concave"])
+def test_the_closing_probe_ends_the_creep_of_regula_falsi(name: str) -> None:
+    # Plain Illinois pins one end on the zero and then creeps with the other (28-38
+    # evaluations here); the closing probe crosses the zero at once.
+    f = TEST_FUNCTIONS[name]
+    *_, n_plain = _illinois(f, 0.0, 0.05, EVENT_TOL, closing=False)
+    *_, n_closing = _illinois(f, 0.0, 0.05, EVENT_TOL, closing=True)
+    assert n_plain >= 20
+    assert n_closing <= n_plain // 2
+
+
+@pytest.mark.parametrize("name", sorted(TEST_FUNCTIONS))
+def test_the_closing_probe_never_costs_evaluations(name: str) -> None:
+    *_, n_plain = _illinois(TEST_FUNCTIONS[name], 0.0, 0.05, EVENT_TOL, closing=False)
+    *_, n_closing = _illinois(TEST_FUNCTIONS[name], 0.0, 0.05, EVENT_TOL, closing=True)
+    assert n_closing <= n_plain
