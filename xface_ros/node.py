@@ -563,6 +563,10 @@ def main(args: list[str] | None = None) -> int:
     return code
 
 
+#: How long an exception inside the executor may wait for a signal's shutdown to show (s).
+SHUTDOWN_GRACE_S = 2.0
+
+
 def _shutdown_race(exc: Exception) -> None:
     """Re-raise ``exc`` unless the context is already down.
 
@@ -570,7 +574,13 @@ def _shutdown_race(exc: Exception) -> None:
     spin that was then building its wait set, taking a message or publishing fails inside rcl
     ("failed to initialize wait set: the given context is not valid", a RuntimeError in
     take_message) instead of returning. Once the context is down, that is the shutdown itself.
+    rclpy's handler runs on a thread of its own, so the failure can come before the context is
+    marked down: wait up to ``SHUTDOWN_GRACE_S`` for it (a real error, with no signal behind
+    it, is raised after that wait).
     """
+    deadline = time.monotonic() + SHUTDOWN_GRACE_S
+    while rclpy.ok() and time.monotonic() < deadline:
+        time.sleep(0.01)
     if rclpy.ok():
         raise exc
     print(f"{NODE_NAME}: shutting down ({type(exc).__name__} at shutdown)", file=sys.stderr)
