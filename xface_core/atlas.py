@@ -31,6 +31,7 @@ import time
 import zipfile
 from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -108,6 +109,16 @@ class FlipStore:
     def __len__(self) -> int:
         with self._lock:
             return len(self._known)
+
+    def __getstate__(self) -> dict[str, object]:
+        # An atlas goes to process-pool workers by pickle: the flips go with it, a lock cannot.
+        with self._lock:
+            return {"known": dict(self._known), "asked": set(self._asked)}
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self._lock = threading.Lock()
+        self._known = state["known"]
+        self._asked = state["asked"]
 
 
 @dataclass(frozen=True, eq=False)

@@ -17,6 +17,7 @@ one between two of its nodes).
 from __future__ import annotations
 
 import math
+import os
 import threading
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
@@ -134,6 +135,16 @@ def _pool() -> ThreadPoolExecutor:
                 max(1, DEFAULT_THREADS - 1), thread_name_prefix="xface-confirm"
             )
         return _POOL
+
+
+def _forget_pool_in_child() -> None:
+    """A forked child (a process pool's worker) inherits the pool object but not its thread:
+    submitting to it would wait forever, so the child makes its own on first use."""
+    global _POOL, _POOL_LOCK
+    _POOL, _POOL_LOCK = None, threading.Lock()
+
+
+os.register_at_fork(after_in_child=_forget_pool_in_child)
 
 
 def _outcomes_split(

@@ -85,3 +85,14 @@ def test_a_segment_without_a_flip_is_refused(x_atlas: xf.AcceptanceAtlas) -> Non
     node = int(np.flatnonzero(out[:-1, line] == out[1:, line])[0])
     with pytest.raises(ValueError, match="no flip"):
         grid_flips(x_atlas, [(0, line, node)], RESOLUTION)
+
+
+def test_an_atlas_pickles_with_its_flips(x_atlas: xf.AcceptanceAtlas) -> None:
+    # Process pools send the atlas by pickle; the store's lock stays behind, its flips go.
+    import pickle
+
+    keys = _flip_segments(x_atlas, 0, 1)
+    grid_flips(x_atlas, keys, RESOLUTION)
+    copy = pickle.loads(pickle.dumps(x_atlas))
+    assert copy.flips.get(keys[0]) == x_atlas.flips.get(keys[0])
+    assert np.array_equal(copy.outcomes, x_atlas.outcomes)

@@ -200,3 +200,15 @@ def test_a_one_off_query_does_not_bisect_grid_lines(monkeypatch: pytest.MonkeyPa
     outcome = xf.predict(design, 0.05, 0.1, path=False).outcome
     got = xf.margins_from_atlas(atlas, 0.05, 0.1, outcome)
     assert _agree(got, xf.outcome_margins(design, 0.05, 0.1, outcome), design.width)
+
+
+def test_a_forked_child_confirms_with_a_pool_of_its_own() -> None:
+    # A process pool forks its workers: the parent's helper thread does not exist there.
+    import multiprocessing
+
+    atlas = build_atlas(xf.x_face(0.25, 1.0), **COARSE)
+    xs, ts = np.array([0.0, 0.1, 0.2]), np.array([0.0, 0.1, -0.1])
+    parent = atlas_margins._outcomes_split(atlas, xs, ts)  # the parent's pool now exists
+    with multiprocessing.get_context("fork").Pool(1) as pool:
+        child = pool.apply_async(atlas_margins._outcomes_split, (atlas, xs, ts)).get(timeout=120)
+    assert np.array_equal(child, parent)
