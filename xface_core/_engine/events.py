@@ -15,7 +15,7 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
-from .integrate import rk_step
+from .integrate import dense_angles, rk_step
 from .motion import slip_margin, velocity
 from .pairs import clipped_gap, eval_pair, pair_at
 from .records import (
@@ -55,6 +55,9 @@ class Segment(NamedTuple):
     step_memo: FloatArray
     """Steps already integrated in this segment (:func:`step_to`; emptied by
     :func:`clear_step_memo` whenever a segment begins)."""
+    dense: FloatArray
+    """Dense output of the last step integrated and of the trial step
+    (:func:`keep_trial_dense`, :func:`angles_at`)."""
 
 
 class Step(NamedTuple):
@@ -99,6 +102,49 @@ def clear_step_memo(memo: FloatArray) -> None:
 
 
 @njit_no_refcount
+def keep_trial_dense(seg: Segment, step: Step) -> None:
+    """Keep the dense output of the trial step just integrated (the last step computed) for
+    the event scan of that step, or none if the last step computed was another one."""
+    d = seg.dense
+    if (
+        d[0, 4] != 0.0
+        and d[0, 0] == step.phi_b
+        and d[0, 1] == step.phi_m
+        and d[0, 2] == step.y_m
+        and d[0, 3] == step.h
+    ):
+        for c in range(d.shape[1]):
+            d[1, c] = d[0, c]
+    else:
+        d[1, 4] = 0.0
+
+
+@njit_no_refcount
+def has_dense(seg: Segment, step: Step) -> bool:
+    """Does the kept dense output cover ``step`` (the trial step, or a head of it)?"""
+    d = seg.dense
+    return bool(
+        d[1, 4] != 0.0
+        and d[1, 0] == step.phi_b
+        and d[1, 1] == step.phi_m
+        and d[1, 2] == step.y_m
+        and step.h <= d[1, 3]
+    )
+
+
+@njit_no_refcount
+def angles_at(seg: Segment, step: Step, t: float) -> tuple[float, float]:
+    """(phi_B, phi_M) a descent ``t`` (D) into ``step``: on the trial step's dense output
+    when it covers the step (a few multiplications; as accurate as the step itself), else
+    by an integration step (:func:`step_to`). For where the exact state is not needed:
+    finding which sample or which candidate to look at, never an event's state."""
+    if has_dense(seg, step):
+        return dense_angles(seg.dense, 1, t)
+    nb, nm, _, _, _ = step_to(seg, step, t)
+    return nb, nm
+
+
+@njit_no_refcount
 def step_to(seg: Segment, step: Step, t: float) -> tuple[float, float, float, float, bool]:
     """One integration step of length ``t`` from the trial step's start:
     ``(phi_b, phi_m, err_b, err_m, ok)``.
@@ -126,7 +172,7 @@ def step_to(seg: Segment, step: Step, t: float) -> tuple[float, float, float, fl
     nb, nm, eb, em, ok = rk_step(
         seg.pairs, seg.act, seg.n_active, step.phi_b, step.phi_m, seg.x0, step.y_m, t,
         seg.sqrt_winv_b, seg.sqrt_winv_m, seg.winv_b, seg.winv_m, seg.mu, seg.slip,
-        k1b, k1m,
+        k1b, k1m, seg.dense,
     )  # fmt: skip
     k = int(memo[0, 1]) + 1
     memo[k, 0], memo[k, 1], memo[k, 2], memo[k, 3] = t, step.phi_b, step.phi_m, step.y_m

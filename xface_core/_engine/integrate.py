@@ -22,6 +22,16 @@ A61, A62, A63, A64, A65 = (
     -5103.0 / 18656.0,
 )
 B1, B3, B4, B5, B6 = 35.0 / 384.0, 500.0 / 1113.0, 125.0 / 192.0, -2187.0 / 6784.0, 11.0 / 84.0
+#: Dense output (Hairer, Norsett & Wanner's DOPRI5, CONTD5): a continuous extension of order
+#: 4 over the step from the stages it has already evaluated.
+D1, D3, D4, D5, D6, D7 = (
+    -12715105075.0 / 11282082432.0,
+    87487479700.0 / 32700410799.0,
+    -10690763975.0 / 1880347072.0,
+    701980252875.0 / 199316789632.0,
+    -1453857185.0 / 822651844.0,
+    69997945.0 / 29380423.0,
+)
 E1, E3, E4, E5, E6, E7 = (
     71.0 / 57600.0,
     -71.0 / 16695.0,
@@ -93,10 +103,14 @@ def rk_step(
     slip: IntArray,
     k1b: float,
     k1m: float,
+    dense: FloatArray,
 ) -> tuple[float, float, float, float, bool]:
     """One Dormand-Prince step of length h in descent from the start rate ``(k1b, k1m)``
     (rad per D: :func:`~.motion.velocity` there, which every step from one start shares,
-    and the event searches take many); returns (pb, pm, err_b, err_m, ok)."""
+    and the event searches take many); returns (pb, pm, err_b, err_m, ok).
+
+    The step's dense output goes to row 0 of ``dense`` (``DENSE_WIDTH`` values, see
+    :func:`dense_angles`); the interpolant ends on the projected end state."""
     k2b, k2m, _, _ = velocity(
         table,
         act,
@@ -175,4 +189,36 @@ def rk_step(
         eb = max(abs(eb), abs(qb - nb))
         em = max(abs(em), abs(qm - nm))
         nb, nm = qb, qm
+    dense[0, 0], dense[0, 1], dense[0, 2], dense[0, 3] = pb, pm, ym, h
+    dense[0, 4] = 1.0 if ok else 0.0
+    _dense_coefficients(dense, 5, pb, nb, h, k1b, k3b, k4b, k5b, k6b, k7b)
+    _dense_coefficients(dense, 9, pm, nm, h, k1m, k3m, k4m, k5m, k6m, k7m)
     return nb, nm, eb, em, ok
+
+
+@njit_no_refcount
+def _dense_coefficients(
+    dense: FloatArray, at: int, y0: float, y1: float, h: float, k1: float, k3: float,
+    k4: float, k5: float, k6: float, k7: float,
+) -> None:  # fmt: skip
+    """One angle's interpolant coefficients (CONTD5's rcont2..rcont5) into row 0 of
+    ``dense`` from column ``at``."""
+    diff = y1 - y0
+    slope_start = h * k1 - diff
+    dense[0, at] = diff
+    dense[0, at + 1] = slope_start
+    dense[0, at + 2] = diff - h * k7 - slope_start
+    dense[0, at + 3] = h * (D1 * k1 + D3 * k3 + D4 * k4 + D5 * k5 + D6 * k6 + D7 * k7)
+
+
+@njit_no_refcount
+def dense_angles(dense: FloatArray, row: int, t: float) -> tuple[float, float]:
+    """(phi_B, phi_M) a descent ``t`` (D) into the step of a dense-output row (0 <= t <= its
+    length): the continuous extension, as accurate as the step (its error is of the order
+    of the step's own error estimate), for the price of a few multiplications."""
+    d = dense
+    s = t / d[row, 3]
+    s1 = 1.0 - s
+    pb = d[row, 0] + s * (d[row, 5] + s1 * (d[row, 6] + s * (d[row, 7] + s1 * d[row, 8])))
+    pm = d[row, 1] + s * (d[row, 9] + s1 * (d[row, 10] + s * (d[row, 11] + s1 * d[row, 12])))
+    return pb, pm

@@ -334,8 +334,8 @@ def wedges_cross(row: FloatArray, cb: float, sb: float, cm: float, sm: float, x0
     vx, vy = _to_world(row, row[1], row[2], moving_v, cv, sv, x0, y_m, True)
     wx, wy = _to_world(row, row[3], row[4], not moving_v, ck, sk, x0, y_m, True)
     dx, dy = vx - wx, vy - wy
-    dist = math.hypot(dx, dy)
-    if dist <= CORNER_REACH or dist > 0.5 * row[COL_EDGE_LENGTH]:
+    dist2 = dx * dx + dy * dy  # squared: no hypot for a test this frequent
+    if dist2 <= CORNER_REACH * CORNER_REACH or dist2 > 0.25 * row[COL_EDGE_LENGTH] ** 2:
         return False
     return not _cone_admits(row, False, cv, sv, ck, sk, x0, y_m, dx, dy, margin, rays)
 

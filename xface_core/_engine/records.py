@@ -132,6 +132,13 @@ FOLD_REACH = 1e-3  # D: solve_fold accepts a fold only this close to its start h
 #: the event scan asks for the same state again and again (the trial step's end in every
 #: root search, a located event's state in the contact checks and in the advance to it).
 STEP_MEMO_SLOTS = 16
+#: D: a pair is left out of the contact scans only while its vertex stays this much farther
+#: from its edge than it can move (above every touching and corner tolerance).
+SLEEP_SLACK = 1e-6
+#: Width of a dense-output row (integrate.rk_step writes one, integrate.dense_angles reads
+#: it): the step's start (phi_B, phi_M, y_M), its length, whether set, then the four
+#: coefficients of the interpolant beyond the start for phi_B, then for phi_M.
+DENSE_WIDTH = 13
 
 
 class Model(NamedTuple):
@@ -248,12 +255,23 @@ class Work(NamedTuple):
     cos phi_M, sin phi_M) at the samples inside a trial step."""
     step_memo: FloatArray
     """(STEP_MEMO_SLOTS + 1, 18) steps integrated in this segment (:func:`~.events.step_to`)."""
+    sleep: FloatArray
+    """(n_pairs, 3) per pair, within a segment: how far (D) its vertex and edge must still
+    move relative to each other before it can come into reach (a contact, or two corners
+    crossing), this trial step's bound on that motion while it is out of reach (-1: in
+    reach, looked at), and 1 while its values at the step's start (``g_prev``, ``u_prev``)
+    are stale (:func:`~.scan.wake`)."""
+    dense: FloatArray
+    """(2, DENSE_WIDTH) dense output of the last step integrated (row 0) and of the trial
+    step being scanned for events (row 1, :func:`~.events.keep_trial_dense`)."""
 
 
 @njit(cache=True, nogil=True)
 def new_work(model: Model, opts: Options) -> Work:
     """Fresh scratch arrays for one run."""
     n = model.pairs.shape[0]
+    sleep = np.zeros((n, 3))
+    sleep[:, 1] = -1.0  # every pair in reach
     return Work(
         np.empty((n, 6)),
         np.empty(n),
@@ -270,4 +288,6 @@ def new_work(model: Model, opts: Options) -> Work:
         np.zeros((4, 2)),
         np.zeros((FINE_SAMPLES, 6)),
         np.zeros((STEP_MEMO_SLOTS + 1, 18)),
+        sleep,
+        np.zeros((2, DENSE_WIDTH)),
     )

@@ -14,6 +14,7 @@ from .events import (
     Event,
     Segment,
     Step,
+    angles_at,
     contact_value,
     earlier,
     end_velocity,
@@ -45,6 +46,7 @@ from .records import (
     E_TURN,
     FINE_SAMPLES,
     FREE,
+    SLEEP_SLACK,
     TOUCH_WINDOW,
     U_TOL,
     FloatArray,
@@ -147,11 +149,33 @@ def _contact_events(
     )
     crossed = False
     rates = (-1.0, -1.0)  # _turn_rates, once a pair needs them
+    sleep = work.sleep
+    # Twice the turn between the ends: the bound on the turn inside an accepted step that
+    # _turn_rates also takes.
+    turn = 2.0 * (abs(nb - step.phi_b) + abs(nm - step.phi_m))
     for i in range(pairs.shape[0]):
         row = pairs[i]
+        travel = _travel(row, step.h, turn)
+        if sleep[i, 0] > travel:
+            # Out of reach all through the step: no contact, no corners crossing, nothing
+            # to evaluate (most pairs of a run, most of the time). Its values at the start
+            # are carried on, stale, until it wakes.
+            sleep[i, 0] -= travel
+            sleep[i, 1] = travel
+            sleep[i, 2] = 1.0
+            g_next[i] = g_prev[i]
+            u_next[i] = u_prev[i]
+            continue
+        sleep[i, 1] = -1.0
+        if sleep[i, 2] != 0.0:
+            g_prev[i], u_prev[i], _, _, _, _, _, _, _ = eval_pair(
+                row, cb0, sb0, cm0, sm0, x0, step.y_m
+            )
+            sleep[i, 2] = 0.0
         g1, u1, _, _, _, _, _, _, _ = eval_pair(row, cb1, sb1, cm1, sm1, x0, y1)
         g_next[i] = g1
         u_next[i] = u1
+        sleep[i, 0] = _reach_budget(row, g1, u1)
         if not crossed:
             crossed = _crossing(opts, rays, row, g1, u1, (cb1, sb1, cm1, sm1, y1),
                                 (cb0, sb0, cm0, sm0, step.y_m), x0)  # fmt: skip
@@ -354,7 +378,7 @@ def _contacts_before(opts: Options, seg: Segment, step: Step, work: Work, best: 
         rates = (-1.0, -1.0)  # _turn_rates of the head, once a pair needs them
         earliest = best
         for i in range(pairs.shape[0]):
-            if (n_act > 0 and act[0] == i) or (n_act > 1 and act[1] == i):
+            if (n_act > 0 and act[0] == i) or (n_act > 1 and act[1] == i) or asleep(work, i):
                 continue
             if contact_value(pairs[i], thr[i], *at_event, x0, step.y_m - best.h) > 0.0:
                 continue
@@ -400,6 +424,45 @@ def _segment_distance(row: FloatArray, g: float, u: float) -> float:
 
 
 @njit_no_refcount
+def _reach_budget(row: FloatArray, g: float, u: float) -> float:
+    """How far (D) the pair's vertex can move relative to its edge, from where its gap is
+    ``g`` and its edge parameter ``u``, and still be out of reach: farther than SLEEP_SLACK
+    from the edge extended by a quarter of its length at both ends (where a crossing of its
+    line is still searched, :func:`_contact_events`), and from within half an edge of its
+    start corner (where two corners crossing are looked for, :func:`_crossing`)."""
+    length = float(row[COL_EDGE_LENGTH])
+    along = 0.0
+    if u < -0.25:
+        along = (-0.25 - u) * length
+    elif u > 1.25:
+        along = (u - 1.25) * length
+    # The larger leg of each distance, not the distance itself: a bound as safe, and a
+    # hypot per pair and step was a tenth of the engine's time.
+    to_edge = max(abs(g), along)
+    to_corner = max(abs(u) * length, abs(g)) - 0.52 * length
+    return float(min(to_edge, to_corner) - SLEEP_SLACK)
+
+
+@njit_no_refcount
+def asleep(work: Work, i: int) -> bool:
+    """Was pair i out of reach all through the trial step being scanned
+    (:func:`_contact_events` decides it for the step)?"""
+    return bool(work.sleep[i, 1] >= 0.0)
+
+
+@njit_no_refcount
+def wake(pairs: FloatArray, work: Work, pb: float, pm: float, x0: float, ym: float) -> None:
+    """Bring every pair's values at the step's start ``(pb, pm, ym)`` up to date and wake
+    them all: for the checks that read them for every pair (:func:`~.folds.cuts_in`)."""
+    sleep, g_prev, u_prev = work.sleep, work.g_prev, work.u_prev
+    cb, sb, cm, sm = math.cos(pb), math.sin(pb), math.cos(pm), math.sin(pm)
+    for i in range(pairs.shape[0]):
+        if sleep[i, 2] != 0.0:
+            g_prev[i], u_prev[i], _, _, _, _, _, _, _ = eval_pair(pairs[i], cb, sb, cm, sm, x0, ym)
+        sleep[i, 0], sleep[i, 1], sleep[i, 2] = 0.0, -1.0, 0.0
+
+
+@njit_no_refcount
 def _contacts_inside_step(
     opts: Options,
     seg: Segment,
@@ -439,7 +502,7 @@ def _contacts_inside_step(
     sampled = False
     rates = (-1.0, -1.0)  # _turn_rates, once a pair needs them
     for i in range(pairs.shape[0]):
-        if (n_act > 0 and act[0] == i) or (n_act > 1 and act[1] == i):
+        if (n_act > 0 and act[0] == i) or (n_act > 1 and act[1] == i) or asleep(work, i):
             continue
         row = pairs[i]
         bound = _travel(row, h_end, turn)
@@ -465,9 +528,11 @@ def _contacts_inside_step(
         ):
             continue
         if not sampled:
-            # The states at the samples, computed once and shared by every pair.
+            # The states at the samples, computed once and shared by every pair: on the
+            # step's dense output, which only has to show where to look (a dip found there
+            # is checked on the integrated path before it is searched).
             for k in range(n_samples):
-                sb_k, sm_k, _, _, _ = step_to(seg, step, (k + 1) / (n_samples + 1) * h_end)
+                sb_k, sm_k = angles_at(seg, step, (k + 1) / (n_samples + 1) * h_end)
                 samples[k, 0], samples[k, 1] = sb_k, sm_k
                 samples[k, 2], samples[k, 3] = math.cos(sb_k), math.sin(sb_k)
                 samples[k, 4], samples[k, 5] = math.cos(sm_k), math.sin(sm_k)
@@ -477,10 +542,14 @@ def _contacts_inside_step(
             at_sample = (samples[k, 2], samples[k, 3], samples[k, 4], samples[k, 5])
             if contact_value(row, thr[i], *at_sample, x0, step.y_m - t) > 0.0:
                 continue
+            pb_k, pm_k, _, _, _ = step_to(seg, step, t)
+            at_sample = (math.cos(pb_k), math.sin(pb_k), math.cos(pm_k), math.sin(pm_k))
+            if contact_value(row, thr[i], *at_sample, x0, step.y_m - t) > 0.0:
+                continue  # a dip of the interpolant only, within the step's error
             head = Step(step.phi_b, step.phi_m, step.y_m, t)
             # The search runs over the head of the step up to this sample: far behind there
             # (screened again over that shorter head), its crossing is no contact.
-            head_rates = _turn_rates(seg, head, samples[k, 0], samples[k, 1])
+            head_rates = _turn_rates(seg, head, pb_k, pm_k)
             if _far_behind(seg, head, i, thr[i], head_rates, (cb0, sb0, cm0, sm0), at_sample):
                 break
             _, hk = locate(seg, head, opts.event_tol, E_CONTACT, i, 0, thr[i])
@@ -538,6 +607,8 @@ def _crossed_at_event(opts: Options, seg: Segment, step: Step, work: Work, nb: f
     start = (cb0, sb0, math.cos(step.phi_m), math.sin(step.phi_m), step.y_m)
     turn = abs(nb - step.phi_b) + abs(nm - step.phi_m)
     for i in range(pairs.shape[0]):
+        if asleep(work, i):
+            continue
         row = pairs[i]
         # Only a pair with u near the corner at either end of the step can have it there
         # at the event (twice the vertex's travel relative to the edge bounds the change of

@@ -11,7 +11,7 @@ import math
 from numba import njit
 
 from .ends import Run, end_at_rest, end_run, record
-from .events import Event, Segment, Step, clear_step_memo, step_to
+from .events import Event, Segment, Step, clear_step_memo, keep_trial_dense, step_to
 from .folds import cuts_in, solve_fold
 from .integrate import project
 from .pairs import eval_all_pairs
@@ -44,7 +44,7 @@ from .records import (
     Work,
     njit_no_refcount,
 )
-from .scan import find_event
+from .scan import find_event, wake
 
 
 @njit_no_refcount
@@ -71,16 +71,19 @@ def begin_segment(
     eval_all_pairs(model.pairs, run.phi_b, run.phi_m, run.x0, run.y_m, work.ev)
     tt = opts.touch_tol
     ev, thr, g_prev, u_prev = work.ev, work.thr, work.g_prev, work.u_prev
+    sleep = work.sleep
     for i in range(ev.shape[0]):
         g = ev[i, 0]
         thr[i] = min(g, 0.0) - tt if -TOUCH_WINDOW * tt <= g <= tt else 0.0
         g_prev[i] = g
         u_prev[i] = ev[i, 1]
+        sleep[i, 0], sleep[i, 1], sleep[i, 2] = 0.0, -1.0, 0.0  # all in reach until looked at
     record(run, path, path_pairs, _phase(run), act, n)
     clear_step_memo(work.step_memo)
+    work.dense[1, 4] = 0.0  # no trial step's dense output yet
     return Segment(
         model.pairs, act, n, opts.friction, work.slip, run.x0, run.y_floor, opts.sqrt_winv_b,
-        opts.sqrt_winv_m, opts.winv_b, opts.winv_m, work.step_memo,
+        opts.sqrt_winv_m, opts.winv_b, opts.winv_m, work.step_memo, work.dense,
     )  # fmt: skip
 
 
@@ -89,6 +92,7 @@ def trial_step(opts: Options, seg: Segment, step: Step) -> tuple[float, float, f
     """Integrate the trial step: ``(phi_b, phi_m, err, turn, ok)`` with the error relative
     to the tolerances (accept at <= 1) and the largest rotation in the step (rad)."""
     nb, nm, eb, em, ok = step_to(seg, step, step.h)
+    keep_trial_dense(seg, step)
     if not ok:
         return nb, nm, math.inf, 0.0, False
     sc_b = opts.atol + opts.rtol * max(abs(step.phi_b), abs(nb))
@@ -103,9 +107,10 @@ def trial_step(opts: Options, seg: Segment, step: Step) -> tuple[float, float, f
 
 
 @njit(cache=True, nogil=True)  # allocates below: needs NRT
-def jump_to_fold(model: Model, run: Run, work: Work, located: bool) -> None:
+def jump_to_fold(model: Model, run: Run, work: Work, located: bool, start: Step) -> None:
     """Move a two-contact run onto the fold of its path (where the pinned contacts reach
-    their lowest point), if the fold is near and the jump cuts into no clear pair.
+    their lowest point), if the fold is near and the jump cuts into no pair that was clear
+    at the ``start`` of the trial step.
 
     Near means: after a *located* turn, within FOLD_RISE of the turn's height either side
     (the fold is where the turn was found, to the locate's accuracy); after the step size
@@ -116,6 +121,8 @@ def jump_to_fold(model: Model, run: Run, work: Work, located: bool) -> None:
         return
     fb, fm, fy, conv = solve_fold(model.pairs, work.act, run.phi_b, run.phi_m, run.x0, run.y_m)
     near = abs(fy - run.y_m) < FOLD_RISE if located else fy <= run.y_m
+    if conv and near:
+        wake(model.pairs, work, start.phi_b, start.phi_m, run.x0, start.y_m)
     if conv and near and not cuts_in(model.pairs, work.g_prev, work.thr, fb, fm, run.x0, fy):
         run.phi_b, run.phi_m, run.y_m = fb, fm, fy
 
@@ -162,9 +169,11 @@ def advance_to_event(
         # projection further away converged to another solution of the contacts (seen: 0.49
         # rad away, the parts 1.5 D^2 inside each other at a pivot on the seat line).
         near = max(abs(tb - run.phi_b), abs(tm - run.phi_m)) <= MAX_TURN
+        if near:
+            wake(model.pairs, work, step.phi_b, step.phi_m, run.x0, step.y_m)
         if near and not cuts_in(model.pairs, work.g_prev, work.thr, tb, tm, run.x0, y_ev):
             run.phi_b, run.phi_m, run.y_m = tb, tm, y_ev
-        jump_to_fold(model, run, work, True)
+        jump_to_fold(model, run, work, True, step)
         run.steps += 1
     elif ev.h > 0.0:
         eb, em, _, _, ok = step_to(seg, step, ev.h)
@@ -175,7 +184,7 @@ def advance_to_event(
             # The step to the event crosses a fold of the path (the rate blows up on the
             # way): stop at the last good state as at a turning point.
             kind = E_TURN
-            jump_to_fold(model, run, work, True)
+            jump_to_fold(model, run, work, True, step)
     return kind
 
 
@@ -232,7 +241,7 @@ def follow_contacts(
             if step.h <= opts.event_tol:
                 # The rate diverges: the contacts reach a turning point (a contact normal
                 # through both pivots). The seat itself is such a point.
-                jump_to_fold(model, run, work, False)
+                jump_to_fold(model, run, work, False, step)
                 end_at_rest(
                     run, path, path_pairs, work.act, model.mated_distance, opts.seat_tol,
                     R_SINGULAR, True,

@@ -18,7 +18,7 @@ import pytest
 import xface_core as xf
 from xface_core._engine.events import Segment, Step
 from xface_core._engine.pairs import fill_extents, pair_at
-from xface_core._engine.records import FREE, STEP_MEMO_SLOTS
+from xface_core._engine.records import DENSE_WIDTH, FREE, STEP_MEMO_SLOTS
 from xface_core.contact import pair_table
 
 #: Columns of the engine's pair table; hand-built rows fill the first ten (kind, vertex, edge,
@@ -76,6 +76,7 @@ class Incline:
         return Segment(
             self.table, act, n_active, 0.0, slip, self.x0, y_floor,
             math.sqrt(winv_b), 1.0, winv_b, 1.0, np.zeros((STEP_MEMO_SLOTS + 1, 18)),
+            np.zeros((2, DENSE_WIDTH)),
         )  # fmt: skip
 
     def step(self, h: float) -> Step:

@@ -5,16 +5,20 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 
+import numpy as np
 import pytest
 
 from xface_core._engine.events import (
     NO_EVENT,
     START_RATE,
     Event,
+    angles_at,
     clear_step_memo,
     closing_probe,
     earlier,
     event_value,
+    has_dense,
+    keep_trial_dense,
     locate,
     segment_velocity,
     step_to,
@@ -22,6 +26,7 @@ from xface_core._engine.events import (
 from xface_core._engine.integrate import rk_step
 from xface_core._engine.pairs import pair_at
 from xface_core._engine.records import (
+    DENSE_WIDTH,
     E_BELOW_SEAT,
     E_CONTACT,
     E_OFF_EDGE,
@@ -131,6 +136,7 @@ def _fresh_step(seg, step, t: float) -> tuple[float, float, float, float, bool]:
     return rk_step(
         seg.pairs, seg.act, seg.n_active, step.phi_b, step.phi_m, seg.x0, step.y_m, t,
         seg.sqrt_winv_b, seg.sqrt_winv_m, seg.winv_b, seg.winv_m, seg.mu, seg.slip, k1b, k1m,
+        np.zeros((2, DENSE_WIDTH)),
     )  # fmt: skip
 
 
@@ -227,3 +233,41 @@ def test_the_closing_probe_never_costs_evaluations(name: str) -> None:
     *_, n_plain = _illinois(TEST_FUNCTIONS[name], 0.0, 0.05, EVENT_TOL, closing=False)
     *_, n_closing = _illinois(TEST_FUNCTIONS[name], 0.0, 0.05, EVENT_TOL, closing=True)
     assert n_closing <= n_plain
+
+
+def test_the_trial_steps_dense_output_is_kept_for_its_scan(incline) -> None:
+    seg = incline.segment()
+    step = incline.step(0.02)
+    step_to(seg, step, step.h)
+    keep_trial_dense(seg, step)
+    assert has_dense(seg, step)
+    head = step._replace(h=0.01)  # a head of the step: covered
+    assert has_dense(seg, head)
+    assert not has_dense(seg, step._replace(h=0.03))  # longer: not covered
+
+
+def test_no_dense_output_is_kept_when_the_last_step_was_another(incline) -> None:
+    seg = incline.segment()
+    step = incline.step(0.02)
+    step_to(seg, step, step.h)
+    step_to(seg, step, 0.01)  # a probe inside: the last step computed is not the trial
+    keep_trial_dense(seg, step)
+    assert not has_dense(seg, step)
+
+
+def test_states_inside_the_step_come_from_the_dense_output_within_its_error(incline) -> None:
+    seg = incline.segment()
+    step = incline.step(0.02)
+    step_to(seg, step, step.h)
+    keep_trial_dense(seg, step)
+    pb, pm = angles_at(seg, step, 0.013)
+    assert pb == 0.0
+    assert pm == pytest.approx(incline.phi_m_at(0.013), abs=1e-9)
+    assert seg.step_memo[0, 0] == 1.0  # no integration step was taken for it
+
+
+def test_states_fall_back_to_an_integration_step_without_a_dense_output(incline) -> None:
+    seg = incline.segment()
+    step = incline.step(0.02)
+    pb, pm = angles_at(seg, step, 0.013)
+    assert (pb, pm) == step_to(seg, step, 0.013)[:2]

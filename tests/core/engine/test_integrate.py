@@ -5,15 +5,28 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from xface_core._engine.integrate import project, rk_step
+from xface_core._engine.integrate import dense_angles, project, rk_step
 from xface_core._engine.motion import velocity
 from xface_core._engine.pairs import pair_at
-from xface_core._engine.records import FREE
+from xface_core._engine.records import DENSE_WIDTH, FREE
 from xface_core.physics import DEFAULT_SETTINGS
 
 ONE = np.array([0, -1, -1, -1], dtype=np.int64)
 TWO = np.array([0, 1, -1, -1], dtype=np.int64)
 NO_SLIP = np.array([FREE, FREE], dtype=np.int64)
+
+
+def _dense_step(incline, h: float) -> tuple[float, float, np.ndarray]:
+    """One projected step down the incline, its end angles and its dense output."""
+    dense = np.zeros((2, DENSE_WIDTH))
+    k1b, k1m, _, _ = velocity(incline.table, ONE, 1, 0.0, incline.phi_m0, incline.x0,
+                              incline.y0, 0.0, 1.0, 0.0, NO_SLIP)  # fmt: skip
+    nb, nm, _, _, ok = rk_step(
+        incline.table, ONE, 1, 0.0, incline.phi_m0, incline.x0, incline.y0, h,
+        0.0, 1.0, 0.0, 1.0, 0.0, NO_SLIP, k1b, k1m, dense,
+    )  # fmt: skip
+    assert ok
+    return nb, nm, dense
 
 
 def _step(incline, h: float, *, projected: bool = True) -> tuple[float, float, float, float, bool]:
@@ -25,7 +38,7 @@ def _step(incline, h: float, *, projected: bool = True) -> tuple[float, float, f
                               incline.y0, 0.0, 1.0, 0.0, NO_SLIP)  # fmt: skip
     return rk_step(
         incline.table, ONE, 1, 0.0, incline.phi_m0, incline.x0, incline.y0, h,
-        0.0, 1.0, 0.0, w, 0.0, NO_SLIP, k1b, k1m,
+        0.0, 1.0, 0.0, w, 0.0, NO_SLIP, k1b, k1m, np.zeros((2, DENSE_WIDTH)),
     )  # fmt: skip
 
 
@@ -80,3 +93,34 @@ def test_projection_of_a_held_base_leaves_it_alone(incline) -> None:
     )
     assert qb == 0.0
     assert qm == pytest.approx(incline.phi_m0, abs=1e-15)
+
+
+def test_the_dense_output_starts_and_ends_on_the_step(incline) -> None:
+    h = 0.02
+    nb, nm, dense = _dense_step(incline, h)
+    assert tuple(dense[0, :5]) == (0.0, incline.phi_m0, incline.y0, h, 1.0)
+    assert dense_angles(dense, 0, 0.0) == (0.0, incline.phi_m0)
+    end_b, end_m = dense_angles(dense, 0, h)
+    assert end_b == nb
+    assert end_m == pytest.approx(nm, abs=1e-15)
+
+
+@pytest.mark.parametrize("fraction", [0.1, 0.25, 0.5, 0.75, 0.9])
+def test_the_dense_output_follows_the_closed_form_path_inside_the_step(
+    incline, fraction: float
+) -> None:
+    # Order 4 inside the step: at the default tolerances' step size it stays within the
+    # step's own error of the exact path.
+    h = 0.02
+    _, _, dense = _dense_step(incline, h)
+    _, pm = dense_angles(dense, 0, fraction * h)
+    assert pm == pytest.approx(incline.phi_m_at(fraction * h), abs=1e-9)
+
+
+def test_the_dense_output_error_falls_with_the_fourth_power_of_the_step(incline) -> None:
+    def error(h: float) -> float:
+        _, _, dense = _dense_step(incline, h)
+        return abs(dense_angles(dense, 0, 0.5 * h)[1] - incline.phi_m_at(0.5 * h))
+
+    ratio = error(0.04) / error(0.02)
+    assert 2**4 * 0.5 < ratio < 2**6 * 1.5

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import xface_core as xf
-from xface_core._engine.overlap import inside, overlapping, segments_cross, world_edges
+from xface_core._engine.overlap import _apart, inside, overlapping, segments_cross, world_edges
 from xface_core.contact import pair_table
 
 
@@ -70,3 +70,12 @@ def test_a_part_deep_inside_the_other_overlaps_without_crossing_edges() -> None:
         [[0.0, 0.0, 0.1, 0.0, 0.0], [0.1, 0.0, 0.0, 0.1, 0.0], [0.0, 0.1, 0.0, 0.0, 0.0]]
     )
     assert overlapping(TABLE.base_edges, tiny, 0.0, 0.0, 0.0, 0.5)
+
+
+def test_parts_whose_boxes_are_apart_are_decided_by_the_boxes() -> None:
+    wb = world_edges(TABLE.base_edges, False, 0.0, 0.3, 0.2, 5.0)
+    wm = world_edges(TABLE.moving_edges, True, 0.0, 0.3, 0.2, 5.0)
+    assert _apart(wb, wm)
+    close_b = world_edges(TABLE.base_edges, False, 0.0, 0.0, 0.0, 0.5 * DESIGN.mated_distance)
+    close_m = world_edges(TABLE.moving_edges, True, 0.0, 0.0, 0.0, 0.5 * DESIGN.mated_distance)
+    assert not _apart(close_b, close_m)

@@ -10,6 +10,7 @@ from xface_core._engine.events import Segment, Step, step_to
 from xface_core._engine.pairs import eval_all_pairs, pair_at
 from xface_core._engine.records import (
     CORNER_REACH,
+    DENSE_WIDTH,
     E_BELOW_SEAT,
     E_CONTACT,
     E_NONE,
@@ -19,7 +20,14 @@ from xface_core._engine.records import (
     Work,
     make_options,
 )
-from xface_core._engine.scan import _far_behind, _far_outside, _gap_bounds, _turn_rates, find_event
+from xface_core._engine.scan import (
+    _far_behind,
+    _far_outside,
+    _gap_bounds,
+    _reach_budget,
+    _turn_rates,
+    find_event,
+)
 from xface_core.physics import Physics
 from xface_core.runner import engine_model
 
@@ -39,6 +47,7 @@ def _work(table: np.ndarray, pb: float, pm: float, x0: float, ym: float) -> Work
         np.zeros(16, dtype=np.int64), np.full(8, -1, dtype=np.int64),
         np.array([0, -1, -1, -1], dtype=np.int64), np.zeros(2, dtype=np.int64),
         np.zeros((4, 2)), np.zeros((FINE_SAMPLES, 6)), np.zeros((STEP_MEMO_SLOTS + 1, 18)),
+        np.column_stack([np.zeros(n), np.full(n, -1.0), np.zeros(n)]), np.zeros((2, DENSE_WIDTH)),
     )  # fmt: skip
 
 
@@ -102,7 +111,7 @@ def _segments_of_a_dock(design, x0: float, theta0: float):
         seg = Segment(
             model.pairs, act, len(held), 0.0, np.full(2, FREE, dtype=np.int64), x0, -np.inf,
             opts.sqrt_winv_b, opts.sqrt_winv_m, opts.winv_b, opts.winv_m,
-            np.zeros((STEP_MEMO_SLOTS + 1, 18)),
+            np.zeros((STEP_MEMO_SLOTS + 1, 18)), np.zeros((2, DENSE_WIDTH)),
         )  # fmt: skip
         y = y0 - p.path.descent[k] / design.width
         yield seg, Step(float(p.path.phi_b[k]), float(p.path.phi_m[k]), float(y), 0.0)
@@ -149,3 +158,21 @@ def test_the_gap_never_rises_above_its_ceiling_in_a_step(design, x0, theta0) -> 
                     assert low > 0.0
                 checked += 1
     assert checked > 100
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_the_reach_budget_is_below_every_distance_at_which_a_pair_is_looked_at(seed) -> None:
+    # Looked at: within reach of its edge extended by a quarter at each end (where a line
+    # crossing is searched) or within half an edge of its start corner (two corners
+    # crossing). The budget must be below both distances, so that a pair moving less than
+    # its budget cannot get there unseen.
+    rng = np.random.default_rng(seed)
+    row = np.zeros(22)
+    length = rng.uniform(0.05, 2.0)
+    row[21] = length  # COL_EDGE_LENGTH
+    for g, u in zip(rng.normal(0.0, 1.0, 200), rng.normal(0.5, 1.5, 200), strict=True):
+        # Points of the extended edge and the corner's half-edge disc, in (along, normal).
+        t = np.linspace(-0.25, 1.25, 301)
+        to_edge = np.hypot((u - t) * length, g).min()
+        to_corner = np.hypot(u * length, g) - 0.51 * length
+        assert _reach_budget(row, g, u) <= min(to_edge, max(to_corner, 0.0)) + 1e-12
