@@ -12,6 +12,7 @@ import math
 import os
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 import numpy.typing as npt
@@ -29,6 +30,7 @@ __all__ = [
     "BatchResult",
     "check_pose",
     "engine_model",
+    "engine_options",
     "predict_batch",
     "run_flat",
     "simulate_pose",
@@ -41,7 +43,8 @@ FloatArray = npt.NDArray[np.float64]
 #: Smallest batch share worth a thread of its own.
 MIN_POSES_PER_THREAD = 64
 
-#: Path samples allocated up front; longer paths trigger one re-run with an exact buffer.
+#: Path samples allocated up front; longer paths trigger one re-run with an exact buffer
+#: (inside the compiled entry).
 PATH_BUFFER = 256
 
 #: Largest accepted |x0| and |y_start|, in widths D: beyond this the geometry is absurd
@@ -116,68 +119,73 @@ def simulate_pose(
     """One validated pose through the engine (see :func:`xface_core.predict`)."""
     check_pose(design, x0, theta0, y_start)
     w = design.width
-    x0_d = x0 / w
-    y0_d = start_height(design, theta0) if y_start is None else y_start / w
-    model = engine_model(design)
-    opts = _engine.make_options(physics)
-    run = np.zeros(1, dtype=_engine.RUN_DTYPE)
-    n_buf = PATH_BUFFER if path else 1
-    while True:
-        buf = np.empty((n_buf, 4))
-        pairs = np.empty((n_buf, 4), dtype=np.int64)
-        _engine.simulate_one(model, opts, x0_d, float(theta0), y0_d, run, buf, pairs)
-        # A path longer than the buffer: run again with room for all of it (the engine is
-        # deterministic, so the second run is the same run).
-        if not path or run["n_samples"][0] <= n_buf:
-            break
-        n_buf = int(run["n_samples"][0])
-    r = run[0]
+    table = pair_table(design)
+    m = table.model
+    # NaN asks the engine for the default start (check_pose let no NaN through): computed
+    # there, it costs no second compiled call.
+    y0_given = math.nan if y_start is None else y_start / w
+    pose = (
+        m.pairs,
+        m.base_edges,
+        m.moving_edges,
+        m.mated_distance,
+        engine_options(physics),
+        table.moving_vertices,
+        table.base_top,
+        START_CLEARANCE,
+        x0 / w,
+        float(theta0),
+        y0_given,
+    )
+    if path:
+        final, arrays = _engine.simulate_path(*pose, x0, w, PATH_BUFFER)
+        track: AlignmentPath | None = AlignmentPath(*arrays)
+    else:
+        final, track = _engine.simulate_final(*pose), None
+    y0_d, outcome, reason, phi_b, phi_m, y_m, steps, events, changes, rejected = final
+    if y_start is not None:
+        y0_d = y0_given  # as given (its own type), not as the engine's float
     return Prediction(
         design=design,
         x0=float(x0),
         theta0=float(theta0),
         y_start=y0_d * w,
-        outcome=Outcome(int(r["outcome"])),
-        reason=Reason(int(r["reason"])).text,
-        phi_b=float(r["phi_b"]),
-        phi_m=float(r["phi_m"]),
-        pivot_m=(float(x0), float(r["y_m"]) * w),
+        outcome=_OUTCOMES[outcome],
+        reason=_REASON_TEXTS[reason],
+        phi_b=phi_b,
+        phi_m=phi_m,
+        pivot_m=(float(x0), y_m * w),
         counters=Counters(
-            steps=int(r["steps"]),
-            events=int(r["events"]),
-            contact_changes=int(r["contact_changes"]),
-            rejected_steps=int(r["rejected_steps"]),
+            steps=steps, events=events, contact_changes=changes, rejected_steps=rejected
         ),
-        path=_alignment_path(buf, pairs, min(int(r["n_samples"]), n_buf), x0, y0_d, w)
-        if path
-        else None,
+        path=track,
     )
 
 
-def _alignment_path(
-    buf: FloatArray,
-    pairs: npt.NDArray[np.int64],
-    n: int,
-    x0: float,
-    y0_d: float,
-    w: float,
-) -> AlignmentPath:
-    return AlignmentPath(
-        descent=(y0_d - buf[:n, 0]) * w,
-        phi_b=buf[:n, 1].copy(),
-        phi_m=buf[:n, 2].copy(),
-        pivot_m=_pivot_track(buf[:n, 0], x0, w),
-        phase=buf[:n, 3].astype(np.int64),
-        contact_pairs=pairs[:n].copy(),
-    )
+#: Outcome members and reason texts by their engine codes (looked up, not constructed: an
+#: enum call costs about 0.25 us).
+_OUTCOMES: dict[int, Outcome] = {int(o): o for o in Outcome}
+_REASON_TEXTS: dict[int, str] = {int(r): r.text for r in Reason}
+
+#: Engine options of recently used physics, by identity: ``make_options`` is cached by
+#: value, which hashes the Physics and its SolverSettings on every call (0.3 us for the
+#: default physics, more for a new but equal one). The entry holds its Physics, so no other
+#: object can have its id while the entry exists; the table is emptied when it is full.
+_OPTIONS_BY_ID: dict[int, tuple[Physics, _engine.OptionValues]] = {}
+_OPTIONS_BY_ID_SIZE = 32
 
 
-def _pivot_track(y_m: FloatArray, x0: float, w: float) -> FloatArray:
-    """(n, 2) moving-pivot positions (length) from its heights ``y_m`` (D) at offset x0."""
-    out = np.empty((len(y_m), 2))
-    out[:, 0] = x0
-    out[:, 1] = y_m * w
-    return out
+def engine_options(physics: Physics) -> _engine.OptionValues:
+    """The engine's options for ``physics`` as a plain tuple (the compiled single-pose
+    entries take a tuple, which numba types faster than the NamedTuple)."""
+    hit = _OPTIONS_BY_ID.get(id(physics))
+    if hit is not None and hit[0] is physics:
+        return hit[1]
+    values = cast(_engine.OptionValues, tuple(_engine.make_options(physics)))
+    if len(_OPTIONS_BY_ID) >= _OPTIONS_BY_ID_SIZE:
+        _OPTIONS_BY_ID.clear()
+    _OPTIONS_BY_ID[id(physics)] = (physics, values)
+    return values
 
 
 @dataclass(frozen=True)

@@ -12,7 +12,14 @@ from __future__ import annotations
 from ._stale import drop_stale_cache
 from .overlap import overlapping
 from .records import RUN_DTYPE, Model, Options, make_options
-from .simulate import lowest_reach, simulate_many, simulate_one
+from .simulate import (
+    OptionValues,
+    lowest_reach,
+    simulate_final,
+    simulate_many,
+    simulate_one,
+    simulate_path,
+)
 
 # Before anything compiles or loads from the cache: drop a cache built from other sources.
 drop_stale_cache(getattr(getattr(simulate_many, "_cache", None), "_cache_path", None))
@@ -20,10 +27,13 @@ drop_stale_cache(getattr(getattr(simulate_many, "_cache", None), "_cache_path", 
 __all__ = [
     "RUN_DTYPE",
     "Model",
+    "OptionValues",
     "Options",
     "lowest_reach",
     "make_options",
     "overlapping",
+    "simulate_final",
     "simulate_many",
     "simulate_one",
+    "simulate_path",
 ]
