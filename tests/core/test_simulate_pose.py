@@ -16,12 +16,14 @@ import pytest
 
 import xface_core as xf
 from xface_core import _engine
+from xface_core._engine import simulate as _simulate
 from xface_core.codes import Outcome, Reason
 from xface_core.geometry import FaceDesign
-from xface_core.physics import Physics
+from xface_core.physics import Physics, SolverSettings
 from xface_core.result import AlignmentPath, Counters, Prediction
 from xface_core.runner import (
     PATH_BUFFER,
+    _frozen,
     check_pose,
     engine_model,
     engine_options,
@@ -183,6 +185,20 @@ def test_simulate_pose_builds_the_prediction_the_old_way_built(
     assert_same_prediction(new, old)
 
 
+@pytest.mark.parametrize("cls", [Prediction, Counters, AlignmentPath])
+def test_the_result_types_can_be_built_without_their_init(cls: type) -> None:
+    # runner._frozen sets the fields of these frozen dataclasses straight into __dict__ (as
+    # unpickling does), which skips a __post_init__ and does not work with slots.
+    assert dataclasses.is_dataclass(cls)
+    assert cls.__dataclass_params__.frozen  # type: ignore[attr-defined]
+    assert not hasattr(cls, "__post_init__")
+    assert "__slots__" not in vars(cls)
+    values = {f.name: k for k, f in enumerate(dataclasses.fields(cls))}
+    built = _frozen(cls, **values)
+    assert type(built) is cls
+    assert vars(built) == vars(cls(**values))
+
+
 def test_the_long_case_outruns_the_path_buffer() -> None:
     p = simulate_pose(*LONG, LONG_PHYSICS)
     assert p.path is not None
@@ -201,13 +217,34 @@ def test_predict_is_simulate_pose() -> None:
     assert_same_prediction(new, reference_pose(design, 0.3, 0.2, Physics(friction=0.1)))
 
 
-def test_engine_options_are_the_options_as_a_tuple_for_equal_and_new_physics() -> None:
-    for physics in (Physics(), Physics(friction=0.2), Physics(damping_ratio=math.inf)):
-        assert engine_options(physics) == tuple(_engine.make_options(physics))
-        assert engine_options(physics) is engine_options(physics)  # cached by identity
-        # An equal but distinct value: the same options, whatever the cache holds.
-        twin = Physics(physics.damping_ratio, physics.friction, physics.settings)
-        assert engine_options(twin) == engine_options(physics)
+def _options_through_the_engine(physics: Physics) -> _engine.Options:
+    """The Options NamedTuple the single-pose entries rebuild from ``engine_options``."""
+    opts: _engine.Options = _simulate._options(engine_options(physics))
+    return opts
+
+
+@pytest.mark.parametrize(
+    "physics",
+    [
+        Physics(),
+        Physics(friction=0.2),
+        Physics(damping_ratio=math.inf),
+        Physics(damping_ratio=3e-4, settings=SolverSettings(max_steps=123, max_events=45)),
+    ],
+)
+def test_engine_options_give_the_engine_the_same_options(physics: Physics) -> None:
+    rebuilt = _options_through_the_engine(physics)
+    expected = _engine.make_options(physics)
+    assert type(rebuilt) is _engine.Options
+    assert_same_value(tuple(rebuilt), tuple(expected), "options")  # values and int/float
+
+
+def test_engine_options_are_cached_by_identity_and_right_for_equal_physics() -> None:
+    physics = Physics(friction=0.3)
+    assert engine_options(physics) is engine_options(physics)
+    assert not engine_options(physics).flags.writeable
+    twin = Physics(physics.damping_ratio, physics.friction, physics.settings)
+    assert np.array_equal(engine_options(twin), engine_options(physics))
 
 
 def test_engine_options_stay_right_past_the_cache_size() -> None:
@@ -215,4 +252,5 @@ def test_engine_options_stay_right_past_the_cache_size() -> None:
     for physics in values:
         assert engine_options(physics)[-1] == physics.friction
     for physics in values[::7]:
-        assert engine_options(physics) == tuple(_engine.make_options(physics))
+        expected = _engine.option_values(_engine.make_options(physics))
+        assert np.array_equal(engine_options(physics), expected)

@@ -13,8 +13,8 @@ from ._stale import drop_stale_cache
 from .overlap import overlapping
 from .records import RUN_DTYPE, Model, Options, make_options
 from .simulate import (
-    OptionValues,
     lowest_reach,
+    option_values,
     simulate_final,
     simulate_many,
     simulate_one,
@@ -27,10 +27,10 @@ drop_stale_cache(getattr(getattr(simulate_many, "_cache", None), "_cache_path", 
 __all__ = [
     "RUN_DTYPE",
     "Model",
-    "OptionValues",
     "Options",
     "lowest_reach",
     "make_options",
+    "option_values",
     "overlapping",
     "simulate_final",
     "simulate_many",

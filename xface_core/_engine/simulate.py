@@ -117,38 +117,37 @@ def lowest_reach(vertices: FloatArray, theta: float) -> float:
 
 # ---- one pose for the typed API (xface_core.runner.simulate_pose) ------------------------
 # Called once per prediction, so the Python around the kernel matters as much as the kernel
-# for short runs (about 10 us). These entries take plain arrays, floats and a plain tuple of
-# the options, which numba's dispatcher types in C (a NamedTuple argument is typed field by
-# field in Python: about 1.5 us a call), and hand back plain scalars and the path already in
-# its final arrays (numpy's slicing and copying of it in Python cost about 4 us).
+# for short runs (about 10 us). These entries take plain arrays and floats, which numba's
+# dispatcher types in C (a NamedTuple argument is typed field by field in Python: about
+# 1.5 us a call, 0.15 us still for a plain tuple of the 15 options), and hand back plain
+# scalars and the path already in its final arrays (numpy's slicing and copying of it in
+# Python cost about 4 us).
 
-#: The engine's options as a plain tuple, in the order of :class:`Options`' fields.
-# fmt: off
-OptionValues = tuple[
-    float, float, float, float, float, float, float,  # rtol ... first_step
-    int, int,  # max_steps, max_events
-    float, float, float, float, float, float,  # jam_speed ... friction
-]
-# fmt: on
+
+def option_values(opts: Options) -> FloatArray:
+    """``opts`` as a read-only float64 array in the order of its fields, as the single-pose
+    entries take it (:func:`_options` reads it back). The two integer budgets are exact as
+    floats up to 2**53 steps or events, far beyond what a run can spend."""
+    values = np.array(opts, dtype=np.float64)
+    values.flags.writeable = False
+    return values
+
+
+@njit(cache=True, nogil=True)
+def _options(v: FloatArray) -> Options:
+    """:class:`Options` from :func:`option_values` (of the same numba type as the NamedTuple
+    made in Python, so the same compiled ``simulate`` runs)."""
+    return Options(
+        v[0], v[1], v[2], v[3], v[4], v[5], v[6], int(v[7]), int(v[8]),
+        v[9], v[10], v[11], v[12], v[13], v[14],
+    )  # fmt: skip
+
 
 #: A run's end as plain values (:func:`_final_values`).
 FinalValues = tuple[float, int, int, float, float, float, int, int, int, int]
 
 #: A path as the fields of ``AlignmentPath`` (:func:`path_arrays`).
 PathArrays = tuple[FloatArray, FloatArray, FloatArray, FloatArray, IntArray, IntArray]
-
-
-@njit(cache=True, nogil=True)
-def _model_and_options(
-    pairs: FloatArray,
-    base_edges: FloatArray,
-    moving_edges: FloatArray,
-    mated_distance: float,
-    options: OptionValues,
-) -> tuple[Model, Options]:
-    """The engine's records rebuilt from plain values (of the same numba types as the
-    NamedTuples made in Python, so the same compiled ``simulate`` runs)."""
-    return Model(pairs, base_edges, moving_edges, mated_distance), Options(*options)
 
 
 @njit(cache=True, nogil=True)
@@ -207,7 +206,7 @@ def simulate_final(
     base_edges: FloatArray,
     moving_edges: FloatArray,
     mated_distance: float,
-    options: OptionValues,
+    options: FloatArray,
     vertices: FloatArray,
     base_top: float,
     clearance: float,
@@ -217,9 +216,10 @@ def simulate_final(
 ) -> FinalValues:
     """One pose without its path: :func:`_final_values` of the run from (x0, theta0) at
     height ``y_start`` (D, rad; NaN: ``clearance`` above the lowest clear height, see
-    :func:`_start`). The model's arrays and options as in :class:`Model` and
-    :class:`Options`; ``vertices`` and ``base_top`` those of the pair table."""
-    model, opts = _model_and_options(pairs, base_edges, moving_edges, mated_distance, options)
+    :func:`_start`). The model's arrays as in :class:`Model`, the options from
+    :func:`option_values`; ``vertices`` and ``base_top`` those of the pair table."""
+    model = Model(pairs, base_edges, moving_edges, mated_distance)
+    opts = _options(options)
     y0 = _start(vertices, base_top, clearance, theta0, y_start)
     runs, _, _ = _run_recorded(model, opts, x0, theta0, y0, 1)
     return _final_values(runs[0], y0)
@@ -255,7 +255,7 @@ def simulate_path(
     base_edges: FloatArray,
     moving_edges: FloatArray,
     mated_distance: float,
-    options: OptionValues,
+    options: FloatArray,
     vertices: FloatArray,
     base_top: float,
     clearance: float,
@@ -268,7 +268,8 @@ def simulate_path(
 ) -> tuple[FinalValues, PathArrays]:
     """:func:`simulate_final` with the path: its values and :func:`path_arrays` (``x0_length``
     is x0 in the caller's unit, ``scale`` D in it), recorded into ``n_buf`` rows first."""
-    model, opts = _model_and_options(pairs, base_edges, moving_edges, mated_distance, options)
+    model = Model(pairs, base_edges, moving_edges, mated_distance)
+    opts = _options(options)
     y0 = _start(vertices, base_top, clearance, theta0, y_start)
     runs, path, path_pairs = _run_recorded(model, opts, x0, theta0, y0, n_buf)
     n = min(runs[0].n_samples, path.shape[0])
