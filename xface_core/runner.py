@@ -136,6 +136,7 @@ def simulate_pose(
     # there, it costs no second compiled call.
     y0_given = math.nan if y_start is None else y_start / w
     x0_f = float(x0)  # also for the path: a float, so that an int x0 compiles nothing new
+    # The arguments both single-pose entries share, in their order (_engine.simulate).
     pose = (
         m.pairs,
         m.base_edges,

@@ -1,4 +1,5 @@
-"""The engine's entry points: one run as a short list of stages, and many runs in a loop.
+"""The engine's entry points: one run as a short list of stages, many runs in a loop, and
+one run for a prediction (``simulate_final``, ``simulate_path``: plain values in and out).
 
 A run, in units of D (MuJoCo's ``mj_forwardSkip`` is the model: stage calls over an
 immutable model and mutable data):
