@@ -12,6 +12,7 @@ import math
 import os
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
+from typing import TypeVar
 
 import numpy as np
 import numpy.typing as npt
@@ -29,6 +30,7 @@ __all__ = [
     "BatchResult",
     "check_pose",
     "engine_model",
+    "engine_options",
     "predict_batch",
     "run_flat",
     "simulate_pose",
@@ -41,7 +43,8 @@ FloatArray = npt.NDArray[np.float64]
 #: Smallest batch share worth a thread of its own.
 MIN_POSES_PER_THREAD = 64
 
-#: Path samples allocated up front; longer paths trigger one re-run with an exact buffer.
+#: Path samples allocated up front; longer paths trigger one re-run with an exact buffer
+#: (inside the compiled entry).
 PATH_BUFFER = 256
 
 #: Largest accepted |x0| and |y_start|, in widths D: beyond this the geometry is absurd
@@ -95,6 +98,17 @@ def start_height(design: FaceDesign, theta0: float) -> float:
 def check_pose(design: FaceDesign, x0: float, theta0: float, y_start: float | None) -> None:
     """Raise :class:`InputError` for a pose the engine cannot take (non-finite, absurd)."""
     w = design.width
+    limit = MAX_OFFSET * w
+    # The usual, valid pose in one expression (0.07 against 0.19 us: once per prediction);
+    # anything else goes through the checks below, which name what is wrong.
+    if (
+        math.isfinite(x0)
+        and abs(x0) <= limit
+        and math.isfinite(theta0)
+        and abs(theta0) <= 2.0 * math.pi
+        and (y_start is None or (math.isfinite(y_start) and abs(y_start) <= limit))
+    ):
+        return
     for name, value in (("x0", x0), ("theta0", theta0), ("y_start", y_start)):
         if value is not None and not math.isfinite(value):
             raise InputError(f"{name} must be finite, got {value!r}")
@@ -116,68 +130,117 @@ def simulate_pose(
     """One validated pose through the engine (see :func:`xface_core.predict`)."""
     check_pose(design, x0, theta0, y_start)
     w = design.width
-    x0_d = x0 / w
-    y0_d = start_height(design, theta0) if y_start is None else y_start / w
-    model = engine_model(design)
-    opts = _engine.make_options(physics)
-    run = np.zeros(1, dtype=_engine.RUN_DTYPE)
-    n_buf = PATH_BUFFER if path else 1
-    while True:
-        buf = np.empty((n_buf, 4))
-        pairs = np.empty((n_buf, 4), dtype=np.int64)
-        _engine.simulate_one(model, opts, x0_d, float(theta0), y0_d, run, buf, pairs)
-        # A path longer than the buffer: run again with room for all of it (the engine is
-        # deterministic, so the second run is the same run).
-        if not path or run["n_samples"][0] <= n_buf:
-            break
-        n_buf = int(run["n_samples"][0])
-    r = run[0]
-    return Prediction(
+    table = pair_table(design)
+    m = table.model
+    # NaN asks the engine for the default start (check_pose let no NaN through): computed
+    # there, it costs no second compiled call.
+    y0_given = math.nan if y_start is None else y_start / w
+    x0_f = float(x0)  # also for the path: a float, so that an int x0 compiles nothing new
+    # The arguments both single-pose entries share, in their order (_engine.simulate).
+    pose = (
+        m.pairs,
+        m.base_edges,
+        m.moving_edges,
+        m.mated_distance,
+        engine_options(physics),
+        table.moving_vertices,
+        table.base_top,
+        START_CLEARANCE,
+        x0 / w,
+        float(theta0),
+        y0_given,
+    )
+    if path:
+        final, arrays = _engine.simulate_path(*pose, x0_f, w, PATH_BUFFER)
+        track: AlignmentPath | None = _alignment_path(*arrays)
+    else:
+        final, track = _engine.simulate_final(*pose), None
+    y0_d, outcome, reason, phi_b, phi_m, y_m, steps, events, changes, rejected = final
+    if y_start is not None:
+        y0_d = y0_given  # as given (its own type), not as the engine's float
+    counters = _frozen(
+        Counters, steps=steps, events=events, contact_changes=changes, rejected_steps=rejected
+    )
+    return _frozen(
+        Prediction,
         design=design,
-        x0=float(x0),
+        x0=x0_f,
         theta0=float(theta0),
         y_start=y0_d * w,
-        outcome=Outcome(int(r["outcome"])),
-        reason=Reason(int(r["reason"])).text,
-        phi_b=float(r["phi_b"]),
-        phi_m=float(r["phi_m"]),
-        pivot_m=(float(x0), float(r["y_m"]) * w),
-        counters=Counters(
-            steps=int(r["steps"]),
-            events=int(r["events"]),
-            contact_changes=int(r["contact_changes"]),
-            rejected_steps=int(r["rejected_steps"]),
-        ),
-        path=_alignment_path(buf, pairs, min(int(r["n_samples"]), n_buf), x0, y0_d, w)
-        if path
-        else None,
+        outcome=_OUTCOMES[outcome],
+        reason=_REASON_TEXTS[reason],
+        phi_b=phi_b,
+        phi_m=phi_m,
+        pivot_m=(x0_f, y_m * w),
+        counters=counters,
+        path=track,
+        margins=None,
     )
 
 
 def _alignment_path(
-    buf: FloatArray,
-    pairs: npt.NDArray[np.int64],
-    n: int,
-    x0: float,
-    y0_d: float,
-    w: float,
+    descent: FloatArray,
+    phi_b: FloatArray,
+    phi_m: FloatArray,
+    pivot_m: FloatArray,
+    phase: npt.NDArray[np.int64],
+    contact_pairs: npt.NDArray[np.int64],
 ) -> AlignmentPath:
-    return AlignmentPath(
-        descent=(y0_d - buf[:n, 0]) * w,
-        phi_b=buf[:n, 1].copy(),
-        phi_m=buf[:n, 2].copy(),
-        pivot_m=_pivot_track(buf[:n, 0], x0, w),
-        phase=buf[:n, 3].astype(np.int64),
-        contact_pairs=pairs[:n].copy(),
+    """The path from the arrays ``_engine.simulate_path`` made for it."""
+    return _frozen(
+        AlignmentPath,
+        descent=descent,
+        phi_b=phi_b,
+        phi_m=phi_m,
+        pivot_m=pivot_m,
+        phase=phase,
+        contact_pairs=contact_pairs,
     )
 
 
-def _pivot_track(y_m: FloatArray, x0: float, w: float) -> FloatArray:
-    """(n, 2) moving-pivot positions (length) from its heights ``y_m`` (D) at offset x0."""
-    out = np.empty((len(y_m), 2))
-    out[:, 0] = x0
-    out[:, 1] = y_m * w
-    return out
+_T = TypeVar("_T")
+
+
+def _frozen(cls: type[_T], **fields: object) -> _T:
+    """An instance of the frozen dataclass ``cls`` from the values of all its fields, set
+    the way unpickling and ``copy`` set them (straight into the instance's ``__dict__``):
+    the generated ``__init__`` sets each field through ``object.__setattr__``, 1.2 us for
+    a Prediction against 0.45 us. Only for the result types, which have no
+    ``__post_init__`` and no slots (tests/core/test_simulate_pose.py checks both, and every
+    field against the old constructor-built Prediction)."""
+    obj = _object_new(cls)
+    _object_setattr(obj, "__dict__", fields)  # the kwargs dict is ours: no copy
+    return obj
+
+
+_object_new = object.__new__
+_object_setattr = object.__setattr__
+
+
+#: Outcome members and reason texts by their engine codes (looked up, not constructed: an
+#: enum call costs about 0.25 us).
+_OUTCOMES: dict[int, Outcome] = {int(o): o for o in Outcome}
+_REASON_TEXTS: dict[int, str] = {int(r): r.text for r in Reason}
+
+#: Engine options of recently used physics, by identity: ``make_options`` is cached by
+#: value, which hashes the Physics and its SolverSettings on every call (0.3 us for the
+#: default physics, more for a new but equal one). The entry holds its Physics, so no other
+#: object can have its id while the entry exists; the table is emptied when it is full.
+_OPTIONS_BY_ID: dict[int, tuple[Physics, FloatArray]] = {}
+_OPTIONS_BY_ID_SIZE = 32
+
+
+def engine_options(physics: Physics) -> FloatArray:
+    """The engine's options for ``physics`` as the single-pose entries take them: a
+    read-only float64 array (:func:`xface_core._engine.option_values`)."""
+    hit = _OPTIONS_BY_ID.get(id(physics))
+    if hit is not None and hit[0] is physics:
+        return hit[1]
+    values = _engine.option_values(_engine.make_options(physics))
+    if len(_OPTIONS_BY_ID) >= _OPTIONS_BY_ID_SIZE:
+        _OPTIONS_BY_ID.clear()
+    _OPTIONS_BY_ID[id(physics)] = (physics, values)
+    return values
 
 
 @dataclass(frozen=True)

@@ -42,10 +42,24 @@ def test_the_cache_is_bounded() -> None:
     assert len(contact._cache) == contact.CACHE_SIZE
 
 
+def test_the_per_design_shortcut_is_bounded_and_gives_the_cached_table() -> None:
+    designs = [xf.x_face(0.5 + 0.001 * k, 1.0) for k in range(contact.CACHE_SIZE + 5)]
+    tables = [contact.pair_table(d) for d in designs]
+    assert len(contact._by_design) <= contact.CACHE_SIZE
+    for design, table in zip(designs, tables, strict=True):  # dropped ones are rebuilt
+        np.testing.assert_array_equal(contact.pair_table(design).data, table.data)
+    design = designs[-1]
+    assert contact.pair_table(design) is contact._by_design[design]
+    assert contact.pair_table(xf.x_face(0.5 + 0.001 * (contact.CACHE_SIZE + 4), 1.0)) is (
+        contact.pair_table(design)
+    )
+
+
 def test_clear_cache_rebuilds_an_equal_table() -> None:
     design = xf.x_face(0.25, 2.0)
     before = contact.pair_table(design)
     contact.clear_cache()
+    assert not contact._by_design
     after = contact.pair_table(design)
     assert after is not before
     np.testing.assert_array_equal(after.data, before.data)

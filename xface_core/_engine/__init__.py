@@ -12,7 +12,14 @@ from __future__ import annotations
 from ._stale import drop_stale_cache
 from .overlap import overlapping
 from .records import RUN_DTYPE, Model, Options, make_options
-from .simulate import lowest_reach, simulate_many, simulate_one
+from .simulate import (
+    lowest_reach,
+    option_values,
+    simulate_final,
+    simulate_many,
+    simulate_one,
+    simulate_path,
+)
 
 # Before anything compiles or loads from the cache: drop a cache built from other sources.
 drop_stale_cache(getattr(getattr(simulate_many, "_cache", None), "_cache_path", None))
@@ -23,7 +30,10 @@ __all__ = [
     "Options",
     "lowest_reach",
     "make_options",
+    "option_values",
     "overlapping",
+    "simulate_final",
     "simulate_many",
     "simulate_one",
+    "simulate_path",
 ]

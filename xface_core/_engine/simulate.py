@@ -1,4 +1,5 @@
-"""The engine's entry points: one run as a short list of stages, and many runs in a loop.
+"""The engine's entry points: one run as a short list of stages, many runs in a loop, and
+one run for a prediction (``simulate_final``, ``simulate_path``: plain values in and out).
 
 A run, in units of D (MuJoCo's ``mj_forwardSkip`` is the model: stage calls over an
 immutable model and mutable data):
@@ -113,3 +114,165 @@ def lowest_reach(vertices: FloatArray, theta: float) -> float:
     for k in range(vertices.shape[0]):
         best = max(best, s * vertices[k, 0] + c * vertices[k, 1])
     return best
+
+
+# ---- one pose for the typed API (xface_core.runner.simulate_pose) ------------------------
+# Called once per prediction, so the Python around the kernel matters as much as the kernel
+# for short runs (about 10 us). These entries take plain arrays and floats, which numba's
+# dispatcher types in C (a NamedTuple argument is typed field by field in Python: about
+# 1.5 us a call, 0.15 us still for a plain tuple of the 15 options), and hand back plain
+# scalars and the path already in its final arrays (numpy's slicing and copying of it in
+# Python cost about 4 us).
+
+
+def option_values(opts: Options) -> FloatArray:
+    """``opts`` as a read-only float64 array in the order of its fields, as the single-pose
+    entries take it (:func:`_options` reads it back). The two integer budgets are exact as
+    floats up to 2**53 steps or events, far beyond what a run can spend."""
+    values = np.array(opts, dtype=np.float64)
+    values.flags.writeable = False
+    return values
+
+
+@njit(cache=True, nogil=True)
+def _options(v: FloatArray) -> Options:
+    """:class:`Options` from :func:`option_values` (of the same numba type as the NamedTuple
+    made in Python, so the same compiled ``simulate`` runs)."""
+    return Options(
+        v[0], v[1], v[2], v[3], v[4], v[5], v[6], int(v[7]), int(v[8]),
+        v[9], v[10], v[11], v[12], v[13], v[14],
+    )  # fmt: skip
+
+
+#: A run's end as plain values (:func:`_final_values`).
+FinalValues = tuple[float, int, int, float, float, float, int, int, int, int]
+
+#: A path as the fields of ``AlignmentPath`` (:func:`path_arrays`).
+PathArrays = tuple[FloatArray, FloatArray, FloatArray, FloatArray, IntArray, IntArray]
+
+
+@njit(cache=True, nogil=True)
+def _start(
+    vertices: FloatArray, base_top: float, clearance: float, theta0: float, y_start: float
+) -> float:
+    """``y_start`` (D), or if it is NaN the lowest clear height for ``theta0`` plus
+    ``clearance`` (``runner.start_height``, in the same order of operations)."""
+    if math.isnan(y_start):
+        return base_top + lowest_reach(vertices, theta0) + clearance
+    return y_start
+
+
+@njit(cache=True, nogil=True)
+def _run_recorded(
+    model: Model, opts: Options, x0: float, theta0: float, y_start: float, n_buf: int
+) -> tuple[npt.NDArray[np.void], FloatArray, IntArray]:
+    """:func:`simulate` into a new one-row ``RUN_DTYPE`` array with a path buffer of
+    ``n_buf`` rows (1: no path, only the final sample). A path longer than a buffer of
+    more than one row runs again with room for all of it (the engine is deterministic, so
+    it is the same run). The buffer cannot grow during the run instead: the engine's
+    sample writer keeps to the arrays it is given (it runs without reference counting, so
+    it must not allocate), and longer paths are rare (none in 4000 random poses of each
+    built-in face at the default physics; some at extreme damping ratios)."""
+    runs = np.zeros(1, dtype=RUN_DTYPE)
+    while True:
+        path = np.empty((n_buf, 4))
+        pairs = np.empty((n_buf, 4), dtype=np.int64)
+        simulate(model, opts, x0, theta0, y_start, runs[0], path, pairs)
+        if n_buf == 1 or runs[0].n_samples <= n_buf:
+            return runs, path, pairs
+        n_buf = runs[0].n_samples
+
+
+@njit(cache=True, nogil=True)
+def _final_values(run: Run, y_start: float) -> FinalValues:
+    """The run's end as plain values: start height and final height (D), outcome and reason
+    codes, final angles (rad), counters."""
+    return (
+        y_start,
+        run.outcome,
+        run.reason,
+        run.phi_b,
+        run.phi_m,
+        run.y_m,
+        run.steps,
+        run.events,
+        run.contact_changes,
+        run.rejected_steps,
+    )
+
+
+@njit(cache=True, nogil=True)
+def simulate_final(
+    pairs: FloatArray,
+    base_edges: FloatArray,
+    moving_edges: FloatArray,
+    mated_distance: float,
+    options: FloatArray,
+    vertices: FloatArray,
+    base_top: float,
+    clearance: float,
+    x0: float,
+    theta0: float,
+    y_start: float,
+) -> FinalValues:
+    """One pose without its path: :func:`_final_values` of the run from (x0, theta0) at
+    height ``y_start`` (D, rad; NaN: ``clearance`` above the lowest clear height, see
+    :func:`_start`). The model's arrays as in :class:`Model`, the options from
+    :func:`option_values`; ``vertices`` and ``base_top`` those of the pair table."""
+    model = Model(pairs, base_edges, moving_edges, mated_distance)
+    opts = _options(options)
+    y0 = _start(vertices, base_top, clearance, theta0, y_start)
+    runs, _, _ = _run_recorded(model, opts, x0, theta0, y0, 1)
+    return _final_values(runs[0], y0)
+
+
+@njit(cache=True, nogil=True)
+def path_arrays(
+    path: FloatArray, pairs: IntArray, n: int, x0: float, y_start: float, scale: float
+) -> PathArrays:
+    """The first ``n`` samples as the fields of ``AlignmentPath``: descent from ``y_start``,
+    phi_B, phi_M, the moving pivot (n, 2) at offset ``x0``, phase and contact pairs.
+    ``x0`` is in the caller's length unit, ``y_start`` and the path in D; lengths come out
+    multiplied by ``scale`` (D in the caller's unit), as numpy computed them before."""
+    descent, phi_b, phi_m = np.empty(n), np.empty(n), np.empty(n)
+    pivot = np.empty((n, 2))
+    phase = np.empty(n, dtype=np.int64)
+    contact = np.empty((n, 4), dtype=np.int64)
+    for k in range(n):
+        descent[k] = (y_start - path[k, 0]) * scale
+        phi_b[k] = path[k, 1]
+        phi_m[k] = path[k, 2]
+        pivot[k, 0] = x0
+        pivot[k, 1] = path[k, 0] * scale
+        phase[k] = np.int64(path[k, 3])  # as astype(int64): truncation
+        for j in range(4):
+            contact[k, j] = pairs[k, j]
+    return descent, phi_b, phi_m, pivot, phase, contact
+
+
+@njit(cache=True, nogil=True)
+def simulate_path(
+    pairs: FloatArray,
+    base_edges: FloatArray,
+    moving_edges: FloatArray,
+    mated_distance: float,
+    options: FloatArray,
+    vertices: FloatArray,
+    base_top: float,
+    clearance: float,
+    x0: float,
+    theta0: float,
+    y_start: float,
+    x0_length: float,
+    scale: float,
+    n_buf: int,
+) -> tuple[FinalValues, PathArrays]:
+    """:func:`simulate_final` with the path: its values and :func:`path_arrays` (``x0_length``
+    is x0 in the caller's unit, ``scale`` D in it), recorded into ``n_buf`` rows first."""
+    model = Model(pairs, base_edges, moving_edges, mated_distance)
+    opts = _options(options)
+    y0 = _start(vertices, base_top, clearance, theta0, y_start)
+    runs, path, path_pairs = _run_recorded(model, opts, x0, theta0, y0, n_buf)
+    n = min(runs[0].n_samples, path.shape[0])
+    arrays = path_arrays(path, path_pairs, n, x0_length, y0, scale)
+    return _final_values(runs[0], y0), arrays
