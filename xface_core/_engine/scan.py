@@ -377,12 +377,24 @@ def _contacts_before(opts: Options, seg: Segment, step: Step, work: Work, best: 
         at_event = (math.cos(eb), math.sin(eb), math.cos(em), math.sin(em))
         rates = (-1.0, -1.0)  # _turn_rates of the head, once a pair needs them
         earliest = best
+        early_h = -1.0  # the state two event widths before the event, once a pair needs it
+        early = at_event
+        t_early = max(best.h - 2.0 * opts.event_tol, 0.0)
         for i in range(pairs.shape[0]):
             if (n_act > 0 and act[0] == i) or (n_act > 1 and act[1] == i) or asleep(work, i):
                 continue
             if contact_value(pairs[i], thr[i], *at_event, x0, step.y_m - best.h) > 0.0:
                 continue
             row = pairs[i]
+            # Crossed within two event widths before the event: the same moment (contacts
+            # closing together, as at a seat), as in _contact_events; the next interval's
+            # touching scan picks it up without a search of its own.
+            if early_h != best.h:
+                early_b, early_m, _, _, _ = step_to(seg, step, t_early)
+                early = (math.cos(early_b), math.sin(early_b), math.cos(early_m), math.sin(early_m))
+                early_h = best.h
+            if contact_value(row, thr[i], *early, x0, step.y_m - t_early) > 0.0:
+                continue
             if g_prev[i] <= thr[i] and (
                 clipped_gap(row, g_prev[i], cb0, sb0, cm0, sm0, x0, step.y_m) <= thr[i]
             ):
