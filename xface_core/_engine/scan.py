@@ -60,6 +60,14 @@ Trig = tuple[float, float, float, float]
 
 
 @njit_no_refcount
+def _trig_after(seg: Segment, step: Step, t: float) -> Trig:
+    """cos and sin of phi_B and phi_M a descent ``t`` (D) into the step, on the integrated
+    path (for checking many pairs at one state)."""
+    pb, pm, _, _, _ = step_to(seg, step, t)
+    return (math.cos(pb), math.sin(pb), math.cos(pm), math.sin(pm))
+
+
+@njit_no_refcount
 def _active_events(
     opts: Options, seg: Segment, step: Step, nb: float, nm: float, best: Event
 ) -> Event:
@@ -207,15 +215,13 @@ def _contact_events(
         # its own. (Several contacts close together at a seat; this spares their searches.)
         if best.kind != E_NONE:
             if at_h != best.h:
-                at_b, at_m, _, _, _ = step_to(seg, step, best.h)
-                at = (math.cos(at_b), math.sin(at_b), math.cos(at_m), math.sin(at_m))
+                at = _trig_after(seg, step, best.h)
                 at_h = best.h
             if contact_value(row, thr[i], *at, x0, step.y_m - at_h) > 0.0:
                 continue
             t_early = max(best.h - 2.0 * tol, 0.0)
             if early_h != best.h:
-                early_b, early_m, _, _, _ = step_to(seg, step, t_early)
-                early = (math.cos(early_b), math.sin(early_b), math.cos(early_m), math.sin(early_m))
+                early = _trig_after(seg, step, t_early)
                 early_h = best.h
             if contact_value(row, thr[i], *early, x0, step.y_m - t_early) > 0.0:
                 continue
@@ -390,8 +396,7 @@ def _contacts_before(opts: Options, seg: Segment, step: Step, work: Work, best: 
             # closing together, as at a seat), as in _contact_events; the next interval's
             # touching scan picks it up without a search of its own.
             if early_h != best.h:
-                early_b, early_m, _, _, _ = step_to(seg, step, t_early)
-                early = (math.cos(early_b), math.sin(early_b), math.cos(early_m), math.sin(early_m))
+                early = _trig_after(seg, step, t_early)
                 early_h = best.h
             if contact_value(row, thr[i], *early, x0, step.y_m - t_early) > 0.0:
                 continue
