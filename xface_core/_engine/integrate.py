@@ -191,6 +191,7 @@ def rk_step(
         nb, nm = qb, qm
     dense[0, 0], dense[0, 1], dense[0, 2], dense[0, 3] = pb, pm, ym, h
     dense[0, 4] = 1.0 if ok else 0.0
+    dense[0, 13], dense[0, 14] = abs(eb), abs(em)
     _dense_coefficients(dense, 5, pb, nb, h, k1b, k3b, k4b, k5b, k6b, k7b)
     _dense_coefficients(dense, 9, pm, nm, h, k1m, k3m, k4m, k5m, k6m, k7m)
     return nb, nm, eb, em, ok

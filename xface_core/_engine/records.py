@@ -136,9 +136,10 @@ STEP_MEMO_SLOTS = 16
 #: from its edge than it can move (above every touching and corner tolerance).
 SLEEP_SLACK = 1e-6
 #: Width of a dense-output row (integrate.rk_step writes one, integrate.dense_angles reads
-#: it): the step's start (phi_B, phi_M, y_M), its length, whether set, then the four
-#: coefficients of the interpolant beyond the start for phi_B, then for phi_M.
-DENSE_WIDTH = 13
+#: it): the step's start (phi_B, phi_M, y_M), its length, whether set, the four
+#: coefficients of the interpolant beyond the start for phi_B, then for phi_M, and the step's
+#: error estimate of phi_B and phi_M (rad; the interpolant's error is of its order).
+DENSE_WIDTH = 15
 
 
 class Model(NamedTuple):

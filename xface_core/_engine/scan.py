@@ -18,6 +18,7 @@ from .events import (
     contact_value,
     earlier,
     end_velocity,
+    has_dense,
     locate,
     segment_velocity,
     start_velocity,
@@ -267,7 +268,8 @@ def _gap_bounds(
     end: Trig,
 ) -> tuple[float, float, float, float]:  # fmt: skip
     """Bounds (D) on pair i's plain gap anywhere in the trial step, from its values at
-    ``pieces + 1`` evenly spaced states (the step's ends and ``step_to`` in between) and
+    ``pieces + 1`` evenly spaced states (the step's ends, and in between its dense output when
+    kept, else ``step_to``; the bounds then widened by the interpolant's error) and
     how fast it can change: ``(floor, ceiling, smallest, largest)``, the last two of the
     gap at those states.
 
@@ -285,13 +287,17 @@ def _gap_bounds(
     dt = step.h / pieces
     arm = math.hypot(row[1], row[2])  # the vertex from its own pivot (D)
     g_top, g_low, g_ceiling, g_floor = -math.inf, math.inf, -math.inf, math.inf
+    ab_max, am_max = 0.0, 0.0  # the largest |dg/dphi| at the states (D/rad)
     # The previous state: gap, |dg/dphi| (D/rad), the vertex from the edge's pivot (D),
     # angles and rates.
     g_a, ab_a, am_a, lever_a, pb_a, pm_a, vb_a, vm_a = 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
     for k in range(pieces + 1):
         pb, pm = step.phi_b, step.phi_m
-        if k > 0:
-            pb, pm, _, _, _ = step_to(seg, step, step.h if k == pieces else k * dt)
+        if k == pieces:
+            pb, pm, _, _, _ = step_to(seg, step, step.h)
+        elif k > 0:
+            # Inside the step the dense output serves (its error is covered by ``slack``).
+            pb, pm = angles_at(seg, step, k * dt)
         y = step.y_m - (step.h if k == pieces else k * dt)
         cb, sb, cm, sm = start if k == 0 else end
         if 0 < k < pieces:
@@ -322,7 +328,15 @@ def _gap_bounds(
             g_ceiling = max(g_ceiling, 0.5 * (g_a + g + lip * dt))
             g_floor = min(g_floor, 0.5 * (g_a + g - lip * dt))
         g_a, ab_a, am_a, lever_a = g, abs(ab), abs(am), lever
+        ab_max, am_max = max(ab_max, ab_a), max(am_max, am_a)
         pb_a, pm_a, vb_a, vm_a = pb, pm, vb, vm
+    if pieces > 1 and has_dense(seg, step):
+        # The states inside the step came from its dense output, off the path by about the
+        # step's error estimate: widen the bounds by ten times that over the gap's angle
+        # derivatives (and a round-off floor).
+        d = seg.dense
+        slack = 10.0 * (d[1, 13] * ab_max + d[1, 14] * am_max) + 1e-12
+        return min(g_low, g_floor) - slack, max(g_top, g_ceiling) + slack, g_low, g_top
     return min(g_low, g_floor), max(g_top, g_ceiling), g_low, g_top
 
 
