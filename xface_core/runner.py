@@ -112,7 +112,7 @@ def check_pose(design: FaceDesign, x0: float, theta0: float, y_start: float | No
     for name, value in (("x0", x0), ("theta0", theta0), ("y_start", y_start)):
         if value is not None and not math.isfinite(value):
             raise InputError(f"{name} must be finite, got {value!r}")
-    if abs(x0) > MAX_OFFSET * w or (y_start is not None and abs(y_start) > MAX_OFFSET * w):
+    if abs(x0) > limit or (y_start is not None and abs(y_start) > limit):
         raise InputError(f"|x0| and |y_start| must be <= {MAX_OFFSET:g} widths")
     if abs(theta0) > 2.0 * math.pi:
         raise InputError(f"|theta0| must be <= 2 pi, got {theta0!r}")

@@ -59,20 +59,23 @@ def world_edges(
 
 
 @njit(cache=True, nogil=True)
+def _box(world: FloatArray) -> tuple[float, float, float, float]:
+    """(min x, max x, min y, max y) of world edges' end points (D)."""
+    lo_x, hi_x, lo_y, hi_y = np.inf, -np.inf, np.inf, -np.inf
+    for i in range(world.shape[0]):
+        for j in range(2):
+            lo_x, hi_x = min(lo_x, world[i, 2 * j]), max(hi_x, world[i, 2 * j])
+            lo_y, hi_y = min(lo_y, world[i, 2 * j + 1]), max(hi_y, world[i, 2 * j + 1])
+    return lo_x, hi_x, lo_y, hi_y
+
+
+@njit(cache=True, nogil=True)
 def _apart(wb: FloatArray, wm: FloatArray) -> bool:
     """Are the parts' bounding boxes (of their world edges) apart? Then no edges cross and
     no vertex is inside the other part: the usual start, clear above the base, is decided
     without the pairwise tests."""
-    b_lo_x, b_hi_x, b_lo_y, b_hi_y = np.inf, -np.inf, np.inf, -np.inf
-    for i in range(wb.shape[0]):
-        for j in range(2):
-            b_lo_x, b_hi_x = min(b_lo_x, wb[i, 2 * j]), max(b_hi_x, wb[i, 2 * j])
-            b_lo_y, b_hi_y = min(b_lo_y, wb[i, 2 * j + 1]), max(b_hi_y, wb[i, 2 * j + 1])
-    m_lo_x, m_hi_x, m_lo_y, m_hi_y = np.inf, -np.inf, np.inf, -np.inf
-    for i in range(wm.shape[0]):
-        for j in range(2):
-            m_lo_x, m_hi_x = min(m_lo_x, wm[i, 2 * j]), max(m_hi_x, wm[i, 2 * j])
-            m_lo_y, m_hi_y = min(m_lo_y, wm[i, 2 * j + 1]), max(m_hi_y, wm[i, 2 * j + 1])
+    b_lo_x, b_hi_x, b_lo_y, b_hi_y = _box(wb)
+    m_lo_x, m_hi_x, m_lo_y, m_hi_y = _box(wm)
     return m_lo_y > b_hi_y or b_lo_y > m_hi_y or m_lo_x > b_hi_x or b_lo_x > m_hi_x
 
 

@@ -168,7 +168,9 @@ def _contact_events(
         if sleep[i, 0] > travel:
             # Out of reach all through the step: no contact, no corners crossing, nothing
             # to evaluate (most pairs of a run, most of the time). Its values at the start
-            # are carried on, stale, until it wakes.
+            # are carried on, stale, until it wakes. The budget is spent here, before the
+            # step is known to be taken: a step that ends in an event ends the segment, and
+            # begin_segment wakes every pair.
             sleep[i, 0] -= travel
             sleep[i, 1] = travel
             sleep[i, 2] = 1.0
@@ -176,11 +178,7 @@ def _contact_events(
             u_next[i] = u_prev[i]
             continue
         sleep[i, 1] = -1.0
-        if sleep[i, 2] != 0.0:
-            g_prev[i], u_prev[i], _, _, _, _, _, _, _ = eval_pair(
-                row, cb0, sb0, cm0, sm0, x0, step.y_m
-            )
-            sleep[i, 2] = 0.0
+        _refresh_start(row, i, work, (cb0, sb0, cm0, sm0), x0, step.y_m)
         g1, u1, _, _, _, _, _, _, _ = eval_pair(row, cb1, sb1, cm1, sm1, x0, y1)
         g_next[i] = g1
         u_next[i] = u1
@@ -406,6 +404,10 @@ def _contacts_before(opts: Options, seg: Segment, step: Step, work: Work, best: 
             if contact_value(pairs[i], thr[i], *at_event, x0, step.y_m - best.h) > 0.0:
                 continue
             row = pairs[i]
+            if g_prev[i] <= thr[i] and (
+                clipped_gap(row, g_prev[i], cb0, sb0, cm0, sm0, x0, step.y_m) <= thr[i]
+            ):
+                continue  # inside at the start already: no crossing in this step
             # Crossed within two event widths before the event: the same moment (contacts
             # closing together, as at a seat), as in _contact_events; the next interval's
             # touching scan picks it up without a search of its own.
@@ -414,10 +416,6 @@ def _contacts_before(opts: Options, seg: Segment, step: Step, work: Work, best: 
                 early_h = best.h
             if contact_value(row, thr[i], *early, x0, step.y_m - t_early) > 0.0:
                 continue
-            if g_prev[i] <= thr[i] and (
-                clipped_gap(row, g_prev[i], cb0, sb0, cm0, sm0, x0, step.y_m) <= thr[i]
-            ):
-                continue  # inside at the start already: no crossing in this step
             if rates[0] < 0.0:
                 rates = _turn_rates(seg, head, eb, em)
             if _far_behind(seg, head, i, thr[i], rates, (cb0, sb0, cm0, sm0), at_event):
@@ -485,12 +483,22 @@ def asleep(work: Work, i: int) -> bool:
 def wake(pairs: FloatArray, work: Work, pb: float, pm: float, x0: float, ym: float) -> None:
     """Bring every pair's values at the step's start ``(pb, pm, ym)`` up to date and wake
     them all: for the checks that read them for every pair (:func:`~.folds.cuts_in`)."""
-    sleep, g_prev, u_prev = work.sleep, work.g_prev, work.u_prev
-    cb, sb, cm, sm = math.cos(pb), math.sin(pb), math.cos(pm), math.sin(pm)
+    sleep = work.sleep
+    trig = (math.cos(pb), math.sin(pb), math.cos(pm), math.sin(pm))
     for i in range(pairs.shape[0]):
-        if sleep[i, 2] != 0.0:
-            g_prev[i], u_prev[i], _, _, _, _, _, _, _ = eval_pair(pairs[i], cb, sb, cm, sm, x0, ym)
-        sleep[i, 0], sleep[i, 1], sleep[i, 2] = 0.0, -1.0, 0.0
+        _refresh_start(pairs[i], i, work, trig, x0, ym)
+        sleep[i, 0], sleep[i, 1] = 0.0, -1.0
+
+
+@njit_no_refcount
+def _refresh_start(row: FloatArray, i: int, work: Work, trig: Trig, x0: float, ym: float) -> None:
+    """Pair i's gap and edge parameter at the step's start (``trig``: cos and sin of the
+    angles there), if they went stale while it was out of reach."""
+    if work.sleep[i, 2] != 0.0:
+        cb, sb, cm, sm = trig
+        g, u, _, _, _, _, _, _, _ = eval_pair(row, cb, sb, cm, sm, x0, ym)
+        work.g_prev[i], work.u_prev[i] = g, u
+        work.sleep[i, 2] = 0.0
 
 
 @njit_no_refcount

@@ -184,6 +184,21 @@ def _run_recorded(
 
 
 @njit(cache=True, nogil=True)
+def _run_pose(
+    pairs: FloatArray, base_edges: FloatArray, moving_edges: FloatArray,
+    mated_distance: float, options: FloatArray, vertices: FloatArray, base_top: float,
+    clearance: float, x0: float, theta0: float, y_start: float, n_buf: int,
+) -> tuple[npt.NDArray[np.void], FloatArray, IntArray, float]:  # fmt: skip
+    """The single-pose entries' run: the model and options from their plain arguments, the
+    start height (:func:`_start`), :func:`_run_recorded`; returns its arrays and the start
+    height (D)."""
+    model = Model(pairs, base_edges, moving_edges, mated_distance)
+    y0 = _start(vertices, base_top, clearance, theta0, y_start)
+    runs, path, path_pairs = _run_recorded(model, _options(options), x0, theta0, y0, n_buf)
+    return runs, path, path_pairs, y0
+
+
+@njit(cache=True, nogil=True)
 def _final_values(run: Run, y_start: float) -> FinalValues:
     """The run's end as plain values: start height and final height (D), outcome and reason
     codes, final angles (rad), counters."""
@@ -219,10 +234,10 @@ def simulate_final(
     height ``y_start`` (D, rad; NaN: ``clearance`` above the lowest clear height, see
     :func:`_start`). The model's arrays as in :class:`Model`, the options from
     :func:`option_values`; ``vertices`` and ``base_top`` those of the pair table."""
-    model = Model(pairs, base_edges, moving_edges, mated_distance)
-    opts = _options(options)
-    y0 = _start(vertices, base_top, clearance, theta0, y_start)
-    runs, _, _ = _run_recorded(model, opts, x0, theta0, y0, 1)
+    runs, _, _, y0 = _run_pose(
+        pairs, base_edges, moving_edges, mated_distance, options, vertices, base_top,
+        clearance, x0, theta0, y_start, 1,
+    )  # fmt: skip
     return _final_values(runs[0], y0)
 
 
@@ -269,10 +284,10 @@ def simulate_path(
 ) -> tuple[FinalValues, PathArrays]:
     """:func:`simulate_final` with the path: its values and :func:`path_arrays` (``x0_length``
     is x0 in the caller's unit, ``scale`` D in it), recorded into ``n_buf`` rows first."""
-    model = Model(pairs, base_edges, moving_edges, mated_distance)
-    opts = _options(options)
-    y0 = _start(vertices, base_top, clearance, theta0, y_start)
-    runs, path, path_pairs = _run_recorded(model, opts, x0, theta0, y0, n_buf)
+    runs, path, path_pairs, y0 = _run_pose(
+        pairs, base_edges, moving_edges, mated_distance, options, vertices, base_top,
+        clearance, x0, theta0, y_start, n_buf,
+    )  # fmt: skip
     n = min(runs[0].n_samples, path.shape[0])
     arrays = path_arrays(path, path_pairs, n, x0_length, y0, scale)
     return _final_values(runs[0], y0), arrays
