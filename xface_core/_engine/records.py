@@ -97,6 +97,9 @@ U_CORNER = 1e-6  # edge-parameter slack within which a vertex meets an edge's en
 #: D: a vertex this close to an edge's end corner meets the corner (vertex on vertex): its
 #: pair is one alternative of the motion choice, never a constraint held on its own.
 CORNER_REACH = 1e-7
+#: D: a contact function this close to zero is zero to round-off (coordinates of a few D
+#: carry about 1e-15); at both ends of a search it cannot bracket a crossing.
+FLAT_GAP = 1e-14
 CUT_DEPTH = 1e-7  # D: deeper than this, a jump to a fold cut into a contact
 MAX_TURN = 0.02  # rad per accepted step
 #: D of descent ahead at which a friction state is judged: at a transition the state at the

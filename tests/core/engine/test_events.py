@@ -12,6 +12,7 @@ from xface_core._engine.events import (
     NO_EVENT,
     START_RATE,
     Event,
+    _stale_scale,
     angles_at,
     clear_step_memo,
     closing_probe,
@@ -32,6 +33,7 @@ from xface_core._engine.records import (
     E_OFF_EDGE,
     E_RELEASE,
     E_SPUN,
+    FLAT_GAP,
     STEP_MEMO_SLOTS,
     U_TOL,
 )
@@ -163,11 +165,21 @@ def test_a_new_start_or_segment_is_not_answered_from_the_memo(incline) -> None:
     assert step_to(seg, step, 0.01) == first
 
 
+def _illinois_scale(f_new: float, f_old: float) -> float:
+    return 0.5
+
+
 def _illinois(
-    f: Callable[[float], float], lo: float, hi: float, tol: float, closing: bool
+    f: Callable[[float], float],
+    lo: float,
+    hi: float,
+    tol: float,
+    closing: bool,
+    scale: Callable[[float, float], float] = _illinois_scale,
 ) -> tuple[float, float, int]:
-    """locate's bracketing loop on a plain function, with or without the closing probe:
-    the final bracket and the number of evaluations."""
+    """locate's bracketing loop on a plain function, with or without the closing probe,
+    with Illinois' halving of the stale end or another ``scale`` (the engine's is
+    ``_stale_scale``): the final bracket and the number of evaluations."""
     f_lo, f_hi, n, side = f(lo), f(hi), 2, 0
     while hi - lo > tol:
         mid = hi - f_hi * (hi - lo) / (f_hi - f_lo)
@@ -178,12 +190,12 @@ def _illinois(
         f_mid = f(mid)
         n += 1
         if f_mid > 0.0:
+            f_hi *= scale(f_mid, f_lo) if side == 1 else 1.0
             lo, f_lo = mid, f_mid
-            f_hi *= 0.5 if side == 1 else 1.0
             side = 1
         else:
+            f_lo *= scale(f_mid, f_hi) if side == -1 else 1.0
             hi, f_hi = mid, f_mid
-            f_lo *= 0.5 if side == -1 else 1.0
             side = -1
     return lo, hi, n
 
@@ -233,6 +245,68 @@ def test_the_closing_probe_never_costs_evaluations(name: str) -> None:
     *_, n_plain = _illinois(TEST_FUNCTIONS[name], 0.0, 0.05, EVENT_TOL, closing=False)
     *_, n_closing = _illinois(TEST_FUNCTIONS[name], 0.0, 0.05, EVENT_TOL, closing=True)
     assert n_closing <= n_plain
+
+
+#: Event functions that bend at their zero, as a clipped gap does at a corner: slopes 1.4 and
+#: 0.5 either side (seen in the X-Face H/D 1), and a vertex arriving along the line.
+BENT_FUNCTIONS: dict[str, Callable[[float], float]] = {
+    "kink": lambda t: 1.4 * (ROOT - t) if t < ROOT else 0.5 * (ROOT - t),
+    "tangent": lambda t: 2.0 * (ROOT - t) if t < ROOT else -30.0 * (t - ROOT) ** 2,
+}
+
+
+def test_the_stale_scale_follows_the_moving_ends_gain() -> None:
+    assert _stale_scale(-0.25, -1.0) == pytest.approx(0.75)
+    assert _stale_scale(0.1, 0.4) == pytest.approx(0.75)
+
+
+def test_the_stale_scale_halves_when_the_moving_end_did_not_gain() -> None:
+    assert _stale_scale(-2.0, -1.0) == 0.5  # the new value is further from zero
+    assert _stale_scale(1.0, -1.0) == 0.5  # signs differ: not the same end
+    assert _stale_scale(-1.0, 0.0) == 0.5
+
+
+def test_the_stale_scale_brackets_a_kinked_zero_in_a_third_of_the_probes() -> None:
+    # 33 probes with Illinois' halving, 11 with the scale. (At the tangential zero it takes
+    # more, 52 against 39; over random poses of the built-in faces it saves probes.)
+    f = BENT_FUNCTIONS["kink"]
+    *_, n_illinois = _illinois(f, 0.0, 0.05, EVENT_TOL, closing=True)
+    *_, n_scaled = _illinois(f, 0.0, 0.05, EVENT_TOL, closing=True, scale=_stale_scale)
+    assert 3 * n_scaled <= n_illinois
+
+
+@pytest.mark.parametrize("name", sorted(BENT_FUNCTIONS))
+def test_the_stale_scale_brackets_a_bent_zero_to_the_tolerance(name: str) -> None:
+    f = BENT_FUNCTIONS[name]
+    lo, hi, _ = _illinois(f, 0.0, 0.05, EVENT_TOL, closing=True, scale=_stale_scale)
+    assert lo <= ROOT <= hi
+    assert hi - lo <= EVENT_TOL
+
+
+@pytest.mark.parametrize("name", sorted(TEST_FUNCTIONS))
+def test_the_stale_scale_brackets_smooth_zeros_to_the_tolerance(name: str) -> None:
+    lo, hi, _ = _illinois(
+        TEST_FUNCTIONS[name], 0.0, 0.05, EVENT_TOL, closing=True, scale=_stale_scale
+    )
+    assert lo <= ROOT <= hi
+    assert 0.0 < hi - lo <= EVENT_TOL
+
+
+def test_a_gap_zero_to_round_off_at_both_ends_is_located_at_the_start(incline) -> None:
+    # Pair 0's vertex is held on its line: its gap is zero to round-off all through the
+    # step, and a threshold a few round-offs below it leaves a function whose sign is noise.
+    seg, step = incline.segment(), incline.step(0.005)
+    thr = incline.gap(0, incline.phi_m0, incline.y0) - 0.5 * FLAT_GAP
+    assert locate(seg, step, EVENT_TOL, E_CONTACT, 0, 0, thr) == (0.0, 0.0)
+
+
+def test_a_gap_clear_of_round_off_is_still_searched(incline) -> None:
+    # The same pair with its threshold ten round-off widths below: the gap stays above it
+    # (no crossing in the step), and the search ends at the step's end, not at its start.
+    seg, step = incline.segment(), incline.step(0.005)
+    thr = incline.gap(0, incline.phi_m0, incline.y0) - 10.0 * FLAT_GAP
+    _lo, hi = locate(seg, step, EVENT_TOL, E_CONTACT, 0, 0, thr)
+    assert hi == pytest.approx(0.005, abs=EVENT_TOL)
 
 
 def test_the_trial_steps_dense_output_is_kept_for_its_scan(incline) -> None:
