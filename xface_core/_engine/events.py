@@ -428,7 +428,7 @@ def locate(
             side = 1
         else:
             if side == -1:
-                f_lo *= _stale_scale(f_mid, f_hi) if math.isfinite(f_mid) else 0.5
+                f_lo *= _stale_scale(f_mid, f_hi)
             hi, f_hi = mid, f_mid
             side = -1
     return lo, hi
@@ -438,9 +438,9 @@ def locate(
 def _stale_scale(f_new: float, f_old: float) -> float:
     """Anderson and Bjorck's factor for the end of a regula falsi bracket that stayed while
     the other end moved twice: ``1 - f_new / f_old`` of the moving end (0.5 when that is not
-    in (0, 1)). Illinois' fixed 0.5 shrinks the stale value too slowly where the event
-    function bends at its zero (a clipped gap at a corner: 20 probes for a zero where the
-    slope drops from 1.4 to 0.5, seen in the X-Face H/D 1); this follows how much the
-    moving end gained."""
+    in (0, 1), which includes a non-finite ``f_new`` or ``f_old``). Illinois' fixed 0.5
+    shrinks the stale value too slowly where the event function bends at its zero (a
+    clipped gap at a corner: 20 probes for a zero where the slope drops from 1.4 to 0.5,
+    seen in the X-Face H/D 1); this follows how much the moving end gained."""
     m = 1.0 - f_new / f_old if f_old != 0.0 else 0.5
     return m if 0.0 < m < 1.0 else 0.5

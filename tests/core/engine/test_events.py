@@ -266,6 +266,15 @@ def test_the_stale_scale_halves_when_the_moving_end_did_not_gain() -> None:
     assert _stale_scale(-1.0, 0.0) == 0.5
 
 
+def test_the_stale_scale_halves_after_a_value_that_is_not_finite() -> None:
+    # locate moves the bracket's end to a probe whose function is NaN or infinite (a rate
+    # through a pole) and then halves the other end, as Illinois did.
+    assert _stale_scale(math.nan, -1.0) == 0.5
+    assert _stale_scale(-math.inf, -1.0) == 0.5
+    assert _stale_scale(-1.0, math.nan) == 0.5
+    assert _stale_scale(-1.0, -math.inf) == 0.5
+
+
 def test_the_stale_scale_brackets_a_kinked_zero_in_a_third_of_the_probes() -> None:
     # 33 probes with Illinois' halving, 11 with the scale. (At the tangential zero it takes
     # more, 52 against 39; over random poses of the built-in faces it saves probes.)
