@@ -13,7 +13,13 @@ from xface_core._engine.records import (
     make_options,
     new_work,
 )
-from xface_core._engine.segment import accept_step, begin_segment, trial_step
+from xface_core._engine.segment import (
+    _shrink,
+    accept_step,
+    begin_segment,
+    next_length,
+    trial_step,
+)
 from xface_core.physics import Physics
 
 OPTS = make_options(Physics(damping_ratio=np.inf))  # the incline's base is held
@@ -83,15 +89,49 @@ def test_a_trial_step_turning_more_than_the_cap_is_rejected(incline) -> None:
     assert (err, ok) == (np.inf, False)
 
 
-def test_accept_step_moves_the_run_and_sizes_the_next_step(incline) -> None:
+def test_accept_step_moves_the_run_and_sets_the_next_length(incline) -> None:
     seg, runs, work, path, pairs = _begin(incline, incline.phi_m0, incline.y0)
     r = runs[0]
     h = r["h"]
-    nb, nm, err, turn, ok = trial_step(OPTS, seg, incline.step(h))
+    nb, nm, _, _, ok = trial_step(OPTS, seg, incline.step(h))
     assert ok
     work.g_next[:] = [0.5, 0.25]
-    accept_step(r, work, nb, nm, err, turn, path, pairs)
+    accept_step(r, work, nb, nm, 0.0123, path, pairs)
     assert (r["phi_b"], r["phi_m"], r["y_m"], r["steps"]) == (nb, nm, incline.y0 - h, 1)
     assert work.g_prev.tolist() == [0.5, 0.25]
-    grow = 5.0 if err == 0.0 else min(5.0, max(0.2, 0.9 * err**-0.2))
-    assert r["h"] == pytest.approx(min(h * grow, 0.9 * MAX_TURN * h / turn), rel=1e-15)
+    assert r["h"] == 0.0123
+
+
+def test_next_length_grows_by_the_error_within_the_turn_cap() -> None:
+    h, turn = 1e-3, 1e-4
+    assert next_length(h, 0.01, turn, 0.0, 0.0, False) == pytest.approx(h * 0.9 * 0.01**-0.2)
+    assert next_length(h, 0.0, turn, 0.0, 0.0, False) == pytest.approx(5.0 * h)
+    assert next_length(h, 0.0, 0.5 * MAX_TURN, 0.0, 0.0, False) == pytest.approx(1.8 * h)
+
+
+def test_next_length_follows_a_shrinking_trend() -> None:
+    # The last two accepted steps shrank by 0.7 at the same error: the predictive controller
+    # shrinks again where the elementary one (0.9 * 0.2**-0.2 = 1.25) would grow.
+    h = 1e-4
+    assert next_length(h, 0.2, 1e-4, h / 0.7, 0.2, False) == pytest.approx(
+        h * 0.9 * 0.2**-0.2 * 0.7
+    )
+
+
+def test_next_length_right_after_a_rejection_is_not_longer() -> None:
+    assert next_length(1e-3, 0.01, 1e-4, 0.0, 0.0, True) == 1e-3
+
+
+def test_shrink_after_the_turn_cap_aims_just_under_the_cap() -> None:
+    h = 1e-2
+    assert _shrink(OPTS, h, np.inf, 1.01 * MAX_TURN, False) == pytest.approx(h * 0.9 / 1.01)
+    assert _shrink(OPTS, h, np.inf, 10.0 * MAX_TURN, False) == h * 0.25  # at least a quarter
+
+
+def test_shrink_after_a_failed_step_is_a_quarter() -> None:
+    assert _shrink(OPTS, 1e-2, np.inf, 0.0, False) == 1e-2 * 0.25
+
+
+def test_shrink_by_the_error_estimate() -> None:
+    assert _shrink(OPTS, 1e-2, 32.0, 1e-3, True) == pytest.approx(1e-2 * 0.9 / 2.0)
+    assert _shrink(OPTS, 1e-2, 1e9, 1e-3, True) == pytest.approx(1e-2 * 0.2)
