@@ -52,18 +52,23 @@ class Logger(Protocol):
 
 
 def warm_up_simulator(config: NodeConfig) -> None:
-    """One prediction, so the first real pose does not pay for loading compiled code.
+    """Predictions through every compiled entry a pose can take, so the first real pose does
+    not pay for loading (or, after an install or a change, compiling) one.
 
-    ``margins=True`` also loads the batch kernel the margin search and ``min_margin`` use.
+    With its path and ``margins=True``: the single-pose entry with a path and the batch
+    kernel of the margin search, the atlas and ``min_margin``. Without its path: the entry a
+    streamed pose takes when nobody subscribes to paths. Left out once, its compilation
+    stalled the first streamed poses of a fresh install for 5-7 s (scripts/ros_stress.py).
     """
-    predict(
-        config.design,
-        0.0,
-        0.0,
-        physics=config.physics,
-        path=True,
-        margins=True,
-    )
+    for with_path in (True, False):
+        predict(
+            config.design,
+            0.0,
+            0.0,
+            physics=config.physics,
+            path=with_path,
+            margins=with_path,
+        )
 
 
 class PredictionWorker:

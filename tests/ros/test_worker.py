@@ -267,3 +267,28 @@ def test_stop_is_idempotent(config: NodeConfig) -> None:
     worker.stop(timeout_s=WAIT_S)
     worker.stop(timeout_s=WAIT_S)
     assert not worker._thread.is_alive()
+
+
+WARM_UP_PROBE = """
+from xface_core import _engine
+from xface_ros.config import SPECS, config_from_values
+from xface_ros.worker import warm_up_simulator
+
+warm_up_simulator(config_from_values({spec.name: spec.default for spec in SPECS}))
+for name in ("simulate_path", "simulate_final", "simulate_many"):
+    print(name, len(getattr(_engine.simulate, name).signatures))
+"""
+
+
+def test_the_warm_up_loads_every_compiled_entry_a_pose_can_take() -> None:
+    # A fresh process: a dispatcher has signatures only once called (compiled or loaded
+    # from the cache), so what the warm-up did not touch shows up as 0.
+    import subprocess
+    import sys
+
+    out = subprocess.run(
+        [sys.executable, "-c", WARM_UP_PROBE], capture_output=True, text=True, timeout=600,
+        check=True,
+    ).stdout  # fmt: skip
+    loaded = dict(line.split() for line in out.splitlines())
+    assert loaded == {"simulate_path": "1", "simulate_final": "1", "simulate_many": "1"}
