@@ -328,7 +328,8 @@ def run_flat(
         np.isfinite(xs) & np.isfinite(ts) & (np.abs(xs) <= MAX_OFFSET) & (np.abs(ts) <= 2 * np.pi)
     )
     if ys is None:
-        ys = np.nan_to_num(start_heights(design, ts))
+        heights = start_heights(design, ts)  # NaN for an invalid angle: any height then
+        ys = np.where(np.isnan(heights), 0.0, heights)
     else:
         valid &= np.isfinite(ys) & (np.abs(ys) <= MAX_OFFSET)
         ys = np.where(valid, ys, 0.0)

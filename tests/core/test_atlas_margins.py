@@ -212,3 +212,19 @@ def test_a_forked_child_confirms_with_a_pool_of_its_own() -> None:
     with multiprocessing.get_context("fork").Pool(1) as pool:
         child = pool.apply_async(atlas_margins._outcomes_split, (atlas, xs, ts)).get(timeout=120)
     assert np.array_equal(child, parent)
+
+
+def test_confirmation_pairs_are_dealt_so_each_thread_gets_both_sides() -> None:
+    # Poses come as (query side, far side) pairs: every other pose would give one thread
+    # all of one side, whose simulations cost twice the other's.
+    chunks = atlas_margins._snake_chunks(8, 2)
+    assert [c.tolist() for c in chunks] == [[0, 3, 4, 7], [1, 2, 5, 6]]
+    assert all(len({k % 2 for k in c.tolist()}) == 2 for c in chunks)
+
+
+@given(st.integers(1, 40), st.integers(1, 6))
+def test_snake_chunks_deal_every_pose_once(n: int, parts: int) -> None:
+    chunks = atlas_margins._snake_chunks(n, parts)
+    assert sorted(np.concatenate(chunks).tolist()) == list(range(n))
+    sizes = [c.size for c in chunks]
+    assert max(sizes) - min(sizes) <= 2
