@@ -2,9 +2,10 @@
 
 Modules, from the inside out: ``records`` (model, options, run state, work arrays, codes),
 ``pairs`` (vertex-edge geometry), ``motion`` (QP, corners, friction), ``integrate`` (the
-Dormand-Prince step), ``events`` and ``scan`` (event functions, location, the earliest
-event), ``folds``, ``overlap``, ``ends`` (samples and ends), ``interval`` and ``segment``
-(the stages), ``simulate`` (the stage loop). The typed API is :mod:`xface_core.runner`.
+Dormand-Prince step), ``bracket``, ``events`` and ``scan`` (root bracketing, event
+functions, location, the earliest event), ``folds``, ``overlap``, ``ends`` (samples and
+ends), ``interval`` and ``segment`` (the stages), ``simulate`` (the stage loop). The typed
+API is :mod:`xface_core.runner`.
 """
 
 from __future__ import annotations
