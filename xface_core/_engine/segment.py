@@ -128,6 +128,14 @@ def jump_to_fold(model: Model, run: Run, work: Work, located: bool, start: Step)
 
 
 @njit_no_refcount
+def _error_factor(err: float) -> float:
+    """The step-length factor an error ``err`` (relative, accept at <= 1) asks for: 0.9
+    err^-1/5 (safety 0.9, the order 4 of the error estimate plus one)."""
+    factor: float = 0.9 * err**-0.2
+    return factor
+
+
+@njit_no_refcount
 def next_length(
     h: float, err: float, turn: float, h_prev: float, err_prev: float, after_reject: bool
 ) -> float:
@@ -142,9 +150,9 @@ def next_length(
     grew every accepted step and had the next one rejected, every other trial step; the
     predictive one follows the trend. The next step also keeps under the turn cap.
     """
-    fac = 5.0 if err == 0.0 else min(5.0, max(0.2, 0.9 * err**-0.2))
+    fac = 5.0 if err == 0.0 else min(5.0, max(0.2, _error_factor(err)))
     if h_prev > 0.0 and err > 0.0 and err_prev > 0.0:
-        fac = min(fac, max(0.2, 0.9 * err**-0.2 * (h / h_prev) * (err_prev / err) ** 0.2))
+        fac = min(fac, max(0.2, _error_factor(err) * (h / h_prev) * (err_prev / err) ** 0.2))
     if after_reject:
         fac = min(fac, 1.0)
     return min(h * fac, 0.9 * MAX_TURN * h / max(turn, TINY))
@@ -176,8 +184,7 @@ def _shrink(opts: Options, h: float, err: float, turn: float, ok: bool) -> float
     the length that would have turned 0.9 of the cap at the step's mean rate (at least a
     quarter: the rate may still grow); after a failed step (``turn`` 0) a quarter."""
     if ok:
-        cut: float = max(0.2, 0.9 * err**-0.2)
-        return max(h * cut, 0.5 * opts.event_tol)
+        return max(h * max(0.2, _error_factor(err)), 0.5 * opts.event_tol)
     if turn > MAX_TURN:
         return h * min(0.9, max(0.25, 0.9 * MAX_TURN / turn))
     return h * 0.25
