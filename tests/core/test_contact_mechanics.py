@@ -37,6 +37,30 @@ def test_corners_meeting_near_the_seat_do_not_pin_into_a_false_seat() -> None:
 
 
 @pytest.mark.parametrize(
+    ("x0", "theta0", "phi_b", "phi_m", "y_m"),
+    [
+        # Each run meets a corner with a corner as a vertex slides off an edge's end. The
+        # edges that end at the corner but do not carry the contact were left out of the
+        # touching set by their gap's error (1.03e-9 D against a touching tolerance of
+        # 1e-9): without their ways of moving on the run jammed at once (here at y_M 0.989,
+        # phi_M 1.097). Engine: BAD_MATE (-0.269, +0.658) at y_M 0.733.
+        (0.95, 0.35 * PI, -0.269, 0.658, 0.733),
+        # The same meeting reached with longer steps (a turn cap of 0.05 rad): it jammed
+        # at y_M 1.281. Engine: BAD_MATE (-0.926, -0.926) at y_M 0.800.
+        (-0.6, -PI / 20, -0.926, -0.926, 0.800),
+    ],
+)
+def test_a_vertex_at_a_corner_meeting_a_corner_slips_on(
+    x0: float, theta0: float, phi_b: float, phi_m: float, y_m: float
+) -> None:
+    p = xf.predict(xf.s_face(1.0, 0.0), x0, theta0, margins=False)
+    assert p.outcome is Outcome.BAD_MATE
+    assert p.phi_b == pytest.approx(phi_b, abs=0.005)
+    assert p.phi_m == pytest.approx(phi_m, abs=0.005)
+    assert p.pivot_m[1] == pytest.approx(y_m, abs=0.005)
+
+
+@pytest.mark.parametrize(
     ("face", "x0", "theta0"),
     [
         # After the pinned stretch the contact set toggled between one and two contacts at

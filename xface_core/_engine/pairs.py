@@ -420,19 +420,30 @@ def touching_pairs(
     """The pairs in contact (their indices into ``cand``; returns how many).
 
     A pair touches when its gap is within the touching window and its vertex would be inside
-    the other part behind the edge's line (:func:`meets_part`) -- or, whatever the
-    neighbouring edge says, within ``CORNER_REACH`` of the edge's end, where two corners
-    meet and every way of staying apart is an alternative for the motion choice. Excluded
-    pairs (released or slid off at this point of the path) are left out.
+    the other part behind the edge's line (:func:`meets_part`) -- or when its vertex is
+    within ``CORNER_REACH`` of the edge's end, whatever its gap's sign and whatever the
+    neighbouring edge says: there two corners meet, the vertex touches every edge that ends
+    at the corner, and every way of staying apart is an alternative for the motion choice.
+    Excluded pairs (released or slid off at this point of the path) are left out.
     """
     cb, sb, cm, sm = math.cos(pb), math.sin(pb), math.cos(pm), math.sin(pm)
+    reach = max(touch_tol, CORNER_REACH)
     nc = 0
     for i in range(ev.shape[0]):
         # Events stop a crossing just past its threshold (-touch_tol for pairs already
         # touching), so the window reaches below -touch_tol.
         g = ev[i, 0]
         u = ev[i, 1]
-        if g > touch_tol or g < -TOUCH_WINDOW * touch_tol or u < -0.25 or u > 1.25:
+        if g > reach or g < -TOUCH_WINDOW * touch_tol or u < -0.25 or u > 1.25:
+            continue
+        row = table[i]
+        # A vertex within CORNER_REACH of an edge's end is at that corner, so it touches
+        # every edge that ends there, whatever its gap to each line (up to CORNER_REACH).
+        # At a corner meeting a corner, the gaps of the edges that do not carry the
+        # contact are the state's error (1e-9 D after a step of 0.05 rad), and dropping
+        # one dropped a way of moving on: the parts jammed where they slip on.
+        at_corner = corner_distance(row, g, u) <= CORNER_REACH
+        if g > touch_tol and not at_corner:
             continue
         skip = False
         for k in range(n_ex):
@@ -440,10 +451,7 @@ def touching_pairs(
                 skip = True
         if skip or nc >= cand.shape[0]:
             continue
-        row = table[i]
-        if corner_distance(row, g, u) > CORNER_REACH and not meets_part(
-            row, u, cb, sb, cm, sm, x0, ym, touch_tol
-        ):
+        if not at_corner and not meets_part(row, u, cb, sb, cm, sm, x0, ym, touch_tol):
             continue
         cand[nc] = i
         nc += 1

@@ -209,6 +209,22 @@ def test_touching_pairs_window_and_exclusions() -> None:
     assert cand[:n].tolist() == [0, 1]
 
 
+def test_a_vertex_at_a_corner_touches_the_edges_that_end_there_whatever_its_gap() -> None:
+    # After a slide off an edge's end the vertex sits at the corner, and its gaps to the
+    # lines of the edges that end there are the state's error (1e-9 D), either sign.
+    tol = 1e-9
+    ev = np.zeros((5, 6))
+    ev[:, 0] = [2.0 * tol, -2.0 * tol, 2.0 * tol, 2.0 * tol, 2e-7]
+    ev[:, 1] = [1.0, 1e-9, 0.5, 1.0 - 1e-6, 1.0]
+    cand = np.full(16, -1, dtype=np.int64)
+    table = np.zeros((5, PAIR_COLUMNS))
+    table[:, 3:7] = [0.0, 0.0, 1.0, 0.0]
+    fill_extents(table)
+    n = touching_pairs(table, ev, 0.0, 0.0, 0.0, 2.0, tol, cand[:0], 0, cand)
+    # 2: off the line inside the span; 3: 1e-6 D from the corner; 4: 2e-7 D off the line.
+    assert cand[:n].tolist() == [0, 1]
+
+
 def test_the_extents_are_the_pairs_reach_and_edge_length() -> None:
     table = pair_table(xf.x_face(0.5, 1.0)).data
     for row in table:
