@@ -101,7 +101,11 @@ CORNER_REACH = 1e-7
 #: carry about 1e-15); at both ends of a search it cannot bracket a crossing.
 FLAT_GAP = 1e-14
 CUT_DEPTH = 1e-7  # D: deeper than this, a jump to a fold cut into a contact
-MAX_TURN = 0.02  # rad per accepted step
+#: rad per accepted step: near a fold of the contact path the rate grows without bound and a
+#: long step could jump across thin features. 0.1 changes no outcome or state of the golden
+#: maps beyond 1.5e-8 rad either (docs/bench.md, issue 12's sixth round): 0.05 keeps a factor
+#: of two.
+MAX_TURN = 0.05
 #: D of descent ahead at which a friction state is judged: at a transition the state at the
 #: point itself is marginal (motion.friction_modes, events.locate).
 SLIP_PROBE = 1e-7
