@@ -102,9 +102,10 @@ CORNER_REACH = 1e-7
 FLAT_GAP = 1e-14
 CUT_DEPTH = 1e-7  # D: deeper than this, a jump to a fold cut into a contact
 #: rad per accepted step: near a fold of the contact path the rate grows without bound and a
-#: long step could jump across thin features. 0.1 changes no outcome of the golden maps
-#: either (docs/bench.md, issue 12's sixth round): 0.05 keeps a factor of two.
-MAX_TURN = 0.05
+#: long step could jump across thin features. 0.05 and 0.1 change no outcome (issue 12's sixth
+#: round, docs/bench.md) but make final angles less accurate (p99 error 4e-10 -> 1.9e-9 rad
+#: on the bench's maps) and the maps were no faster beyond this machine's noise: not kept.
+MAX_TURN = 0.02
 #: D of descent ahead at which a friction state is judged: at a transition the state at the
 #: point itself is marginal (motion.friction_modes, events.locate).
 SLIP_PROBE = 1e-7
