@@ -7,6 +7,8 @@ Writes to ``--out`` (default ``bench/``):
   event-location error, constraint violation (overlap area of the parts at the end, by
   shapely), and map mismatches, split into
   nodes on an outcome boundary (the reference flips within 1e-6 of the node) and the rest;
+  nodes where the reference is not converged (a second one, 100 times tighter than the
+  default, differs from it: ``unconverged_reference``) are counted apart and left out;
 - ``work_precision.png``: error against time, log-log;
 - ``targets.md``: the speed targets (one prediction with its path, one map, all tables), the
   ablation of the skip techniques that can be switched off, and, with the ``crosscheck``
@@ -46,6 +48,15 @@ __all__ = ["REFERENCE_SETTINGS", "run_bench"]
 #: The reference: every tolerance 1000 times tighter than the default (rtol 1e-11, events to
 #: 1e-15 D); tighter still, the step control stalls on round-off near folds of the path.
 REFERENCE_SETTINGS = DEFAULT_SETTINGS.tightened(1e-3)
+#: A second reference, 100 times tighter than the default. A node where the two references
+#: differ in outcome or by more than REFERENCE_AGREEMENT (rad, D) in the final state is not
+#: converged in the reference (its error there is the reference's: near a pair of contacts
+#: whose rotational normals are nearly opposite, round-off amplified by their conditioning
+#: reaches rtol 1e-11; or a seat found within the seat tolerance short of the mated pose), so
+#: it is counted apart and left out of the errors and mismatches. On the bench's designs the
+#: two references agree to 1.6e-8 or better at every other node.
+REFERENCE_CHECK_SETTINGS = DEFAULT_SETTINGS.tightened(1e-2)
+REFERENCE_AGREEMENT = 1e-6
 
 BENCH_DESIGNS: tuple[tuple[str, float, float], ...] = (
     ("X", 0.25, 2.0),
@@ -150,14 +161,25 @@ def _boundary_nodes(ref: _Finals, design: FaceDesign) -> npt.NDArray[np.bool_]:
     return near.ravel()
 
 
+def _unconverged_nodes(ref: _Finals, check: _Finals) -> npt.NDArray[np.bool_]:
+    """Nodes where the reference and the check reference (REFERENCE_CHECK_SETTINGS) differ
+    in outcome or by more than REFERENCE_AGREEMENT in an angle or the height."""
+    off = ref.outcome != check.outcome
+    for a, b in ((ref.phi_b, check.phi_b), (ref.phi_m, check.phi_m), (ref.y_m, check.y_m)):
+        off |= np.abs(a - b) > REFERENCE_AGREEMENT  # NaN (no state) compares False
+    return np.asarray(off)
+
+
 def _work_precision(
     designs: list[FaceDesign], rtols: list[float], repeats: int, steps: _Steps
 ) -> list[dict[str, object]]:
-    refs, boundary = [], []
+    refs, boundary, unconverged = [], [], []
     for d in designs:
         refs.append(_finals(d, REFERENCE_SETTINGS))
         boundary.append(_boundary_nodes(refs[-1], d))
+        unconverged.append(_unconverged_nodes(refs[-1], _finals(d, REFERENCE_CHECK_SETTINGS)))
         steps.step()
+    n_unconverged = int(sum(np.count_nonzero(u) for u in unconverged))
     rows: list[dict[str, object]] = []
     for rtol in rtols:
         for symmetry in (True, False):
@@ -179,17 +201,18 @@ def _work_precision(
             )
             err_state, err_p99, err_event, pen = [], [], [], []
             mism_b, mism_nb, dm = 0, 0, 0
-            for d, ref, bnd in zip(designs, refs, boundary, strict=True):
+            for d, ref, bnd, bad in zip(designs, refs, boundary, unconverged, strict=True):
                 f = _finals(d, s)
-                same = f.outcome == ref.outcome
+                same = (f.outcome == ref.outcome) & ~bad
                 both = np.r_[same, same]
                 diffs = np.abs(np.r_[f.phi_b - ref.phi_b, f.phi_m - ref.phi_m][both])
                 err_state.append(float(diffs.max()))
                 err_p99.append(float(np.percentile(diffs, 99)))
                 err_event.append(float(np.max(np.abs(f.y_m - ref.y_m)[same])))
                 pen.append(float(f.penetration.max()))
-                mism_b += int(np.count_nonzero(~same & bnd))
-                mism_nb += int(np.count_nonzero(~same & ~bnd))
+                differ = (f.outcome != ref.outcome) & ~bad
+                mism_b += int(np.count_nonzero(differ & bnd))
+                mism_nb += int(np.count_nonzero(differ & ~bnd))
                 dm += abs(
                     int(np.count_nonzero(f.outcome == Outcome.SEATED))
                     - int(np.count_nonzero(ref.outcome == Outcome.SEATED))
@@ -209,6 +232,7 @@ def _work_precision(
                     "mismatch_boundary": mism_b,
                     "mismatch_other": mism_nb,
                     "sum_abs_dM": dm,
+                    "unconverged_reference": n_unconverged,
                 }
             )
             steps.step()
@@ -216,7 +240,8 @@ def _work_precision(
                 f"rtol={rtol:.0e} sym={symmetry!s:5} {t_map * 1e3:8.1f} ms/map  "
                 f"state err {max(err_state):.1e} (p99 {max(err_p99):.1e})  "
                 f"event err {max(err_event):.1e}  "
-                f"overlap {max(pen):.1e} D^2  mismatches {mism_nb} (+{mism_b} on boundaries)"
+                f"overlap {max(pen):.1e} D^2  mismatches {mism_nb} (+{mism_b} on boundaries; "
+                f"{n_unconverged} nodes left out: reference not converged)"
             )
     return rows
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import re
 
+import numpy as np
 import pytest
 
 from xface_core import bench
@@ -30,3 +31,21 @@ def test_without_the_extra_the_line_says_how_to_get_it(monkeypatch: pytest.Monke
     assert bench._pymunk_lines(True, 1) == [
         "| pymunk scene per 41 x 41 map | not measured: `pip install 'xface[crosscheck]'` | |"
     ]
+
+
+def _finals(outcome: list[int], phi_m: list[float]) -> bench._Finals:
+    n = len(outcome)
+    return bench._Finals(
+        np.array(outcome, dtype=np.int8),
+        np.zeros(n),
+        np.array(phi_m),
+        np.ones(n),
+        np.zeros(n),
+    )
+
+
+def test_nodes_where_the_two_references_differ_are_not_converged() -> None:
+    ref = _finals([4, 4, 4, 3, 1], [0.1, 0.1, 0.1, 0.0, np.nan])
+    check = _finals([4, 4, 4, 4, 1], [0.1 + 5e-7, 0.1 + 2e-6, 0.1 - 0.3, 0.0, np.nan])
+    # Within the agreement; off by 2e-6; off by 0.3 (a jam passed); another outcome; no state.
+    assert bench._unconverged_nodes(ref, check).tolist() == [False, True, True, True, False]
