@@ -55,6 +55,7 @@ def predict(
     margins: bool = False,
     settings: SolverSettings | None = None,
     atlas: AcceptanceAtlas | None = None,
+    margin_threads: int | None = None,
 ) -> Prediction:
     """Predict whether the faces seat from one initial relative pose.
 
@@ -91,6 +92,10 @@ def predict(
         physics) and confirm them exactly (:func:`~xface_core.atlas_margins.margins_from_atlas`:
         the same values as the exact search, with a fraction of its simulations). The pose
         itself is always simulated.
+    margin_threads : int, optional
+        With ``margins`` and ``atlas``: threads that share each batch of confirmation
+        simulations (default: one per core; see
+        :func:`~xface_core.atlas_margins.margins_from_atlas`).
 
     Returns
     -------
@@ -111,7 +116,12 @@ def predict(
     prediction = simulate_pose(design, x0, theta0, phys, y_start=y_start, path=path)
     if margins and atlas is not None:
         found = margins_from_atlas(
-            atlas.bound_to(design, phys), x0, theta0, prediction.outcome, y_start=y_start
+            atlas.bound_to(design, phys),
+            x0,
+            theta0,
+            prediction.outcome,
+            y_start=y_start,
+            threads=margin_threads,
         )
         prediction = replace(prediction, margins=found)
     elif margins:

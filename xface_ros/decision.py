@@ -399,6 +399,7 @@ def simulate(
         path=path,
         margins=margins,
         atlas=atlas if margins else None,
+        margin_threads=config.margin_threads,
     )
     return prediction, time.perf_counter() - t0
 

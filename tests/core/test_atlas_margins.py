@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 import xface_core as xf
 from xface_core import atlas_margins
 from xface_core.atlas import build_atlas
+from xface_core.errors import XfaceValueError
 from xface_core.margins import ANGLE_RESOLUTION, LATERAL_RESOLUTION
 from xface_core.runner import clear_start_height
 
@@ -179,12 +180,34 @@ def test_a_wrong_interpolated_flip_is_caught_by_its_confirmation(
     assert _agree(got, xf.outcome_margins(design, 0.05, 0.1, outcome), design.width)
 
 
-def test_confirmation_poses_split_over_threads_give_the_batch_outcomes() -> None:
+@pytest.mark.parametrize("threads", [1, 2, 3])
+def test_confirmation_poses_split_over_threads_give_the_batch_outcomes(threads: int) -> None:
     atlas = build_atlas(xf.x_face(0.25, 1.0), **COARSE)
     rng = np.random.default_rng(3)
     xs, ts = rng.uniform(-1.0, 1.0, 9), rng.uniform(-1.0, 1.0, 9)
-    split = atlas_margins._outcomes_split(atlas, xs, ts)
+    split = atlas_margins._outcomes_split(atlas, xs, ts, threads)
     assert np.array_equal(split, xf.predict_batch(atlas.design, xs, ts).outcome)
+
+
+def test_margins_are_the_same_with_any_number_of_threads() -> None:
+    # Each on an atlas of its own: the grid-line flips an atlas keeps change which searches
+    # the next query takes (and its answer, within the resolution).
+    design = xf.x_face(0.25, 1.0)
+    outcome = xf.predict(design, 0.05, 0.1).outcome
+    found = []
+    for threads in (1, 2):
+        atlas = build_atlas(design, **COARSE)
+        for _ in range(2):  # the second query reads the grid-line flips the first found
+            found.append(xf.margins_from_atlas(atlas, 0.05, 0.1, outcome, threads=threads))
+    assert found[:2] == found[2:]
+
+
+@pytest.mark.parametrize("threads", [0, -1, 1.5, True, "2"])
+def test_a_thread_count_that_is_not_a_positive_integer_is_refused(threads: object) -> None:
+    design = xf.x_face(0.25, 1.0)
+    atlas = build_atlas(design, **COARSE)
+    with pytest.raises(XfaceValueError, match="threads must be an integer >= 1"):
+        xf.margins_from_atlas(atlas, 0.05, 0.1, xf.Outcome.SEATED, threads=threads)  # type: ignore[arg-type]
 
 
 def test_a_one_off_query_does_not_bisect_grid_lines(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -208,9 +231,9 @@ def test_a_forked_child_confirms_with_a_pool_of_its_own() -> None:
 
     atlas = build_atlas(xf.x_face(0.25, 1.0), **COARSE)
     xs, ts = np.array([0.0, 0.1, 0.2]), np.array([0.0, 0.1, -0.1])
-    parent = atlas_margins._outcomes_split(atlas, xs, ts)  # the parent's pool now exists
+    parent = atlas_margins._outcomes_split(atlas, xs, ts, 2)  # the parent's pool now exists
     with multiprocessing.get_context("fork").Pool(1) as pool:
-        child = pool.apply_async(atlas_margins._outcomes_split, (atlas, xs, ts)).get(timeout=120)
+        child = pool.apply_async(atlas_margins._outcomes_split, (atlas, xs, ts, 2)).get(timeout=120)
     assert np.array_equal(child, parent)
 
 

@@ -453,3 +453,31 @@ def test_every_test_here_and_of_the_worker_runs_without_ros() -> None:
     assert passed is not None, out
     assert int(passed[1]) >= 40, out
     assert "failed" not in out, out
+
+
+def test_streamed_margins_run_on_the_configured_threads(
+    config: NodeConfig, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from xface_core import atlas_margins
+    from xface_core.atlas import build_atlas
+
+    asked: list[int] = []
+    real = atlas_margins._outcomes_split
+
+    def spy(atlas: Any, xs: Any, ts: Any, threads: int) -> Any:
+        asked.append(threads)
+        return real(atlas, xs, ts, threads)
+
+    monkeypatch.setattr(atlas_margins, "_outcomes_split", spy)
+    atlas = build_atlas(config.design, lateral_step=1 / 32, angle_step=math.pi / 128)
+    values = {**config.values(), "margin_threads": 3}
+    three = config_from_values(values)
+    # The second query near the first reads the grid-line flips the first found and confirms
+    # them in one batch (a one-off query searches its own line instead).
+    for x0 in (0.05, 0.051):
+        verdict = evaluate_streamed(
+            at_start(x0, 0.1), three, receive_ns=NOW_NS, path=False, atlas=atlas
+        )
+    assert isinstance(verdict, Predicted)
+    assert verdict.prediction.margins is not None
+    assert set(asked) == {3}  # and not empty: the margins were confirmed from the atlas
