@@ -83,9 +83,9 @@ def stream(
     confirmations: list[tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]] = []
     real_split = atlas_margins_module._outcomes_split
 
-    def capture(a: xf.AcceptanceAtlas, xs: Any, ts: Any, threads: int) -> Any:
+    def capture(a: xf.AcceptanceAtlas, xs: Any, ts: Any, sims: Any) -> Any:
         confirmations.append((xs * a.design.width, ts))
-        return real_split(a, xs, ts, threads)
+        return real_split(a, xs, ts, sims)
 
     atlas_margins_module._outcomes_split = capture  # type: ignore[assignment]
     times, sims, ratios = [], [], []

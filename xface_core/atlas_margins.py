@@ -21,6 +21,7 @@ import os
 import threading
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 import numpy.typing as npt
@@ -36,8 +37,10 @@ from .margins import (
     flip_distance,
     outcome_margins,
     reach_margins,
+    search_physics,
 )
 from .outcome import Outcome
+from .physics import Physics
 from .result import Margins
 from .runner import DEFAULT_THREADS, check_pose, clear_start_height, predict_batch
 
@@ -71,6 +74,20 @@ class _HalfAxis:
     lo: float = 0.0  # largest offset known to have the query's outcome
     hi: float = math.inf  # smallest offset known to differ (inf: none yet)
     cursor: int = 0  # next crossing to read from the atlas
+
+
+class _Sims(NamedTuple):
+    """How the simulations that confirm and bisect the query's flips run."""
+
+    physics: Physics
+    threads: int
+
+
+def _sims_for(atlas: AcceptanceAtlas, q: int, threads: int) -> _Sims:
+    """The physics of the confirmations (:func:`~xface_core.margins.search_physics`: a
+    query that never touches is decided by its approach alone) and their threads. The atlas
+    path always starts clear of the base (a lower start takes the exact search)."""
+    return _Sims(search_physics(atlas.design, atlas.physics, q, None), threads)
 
 
 def _half_axes(
@@ -117,12 +134,17 @@ def _poses(
 
 
 def _exact(
-    atlas: AcceptanceAtlas, x_d: float, theta0: float, h: _HalfAxis, offsets: npt.ArrayLike
+    atlas: AcceptanceAtlas,
+    x_d: float,
+    theta0: float,
+    h: _HalfAxis,
+    offsets: npt.ArrayLike,
+    sims: _Sims,
 ) -> npt.NDArray[np.int8]:
     """Exact outcomes at offsets along one half-axis (one batch)."""
     design = atlas.design
     xs, ts = _poses(x_d, theta0, h.axis, h.direction, offsets)
-    return predict_batch(design, xs * design.width, ts, physics=atlas.physics).outcome
+    return predict_batch(design, xs * design.width, ts, physics=sims.physics).outcome
 
 
 _POOL: ThreadPoolExecutor | None = None
@@ -155,7 +177,7 @@ def _outcomes_split(
     atlas: AcceptanceAtlas,
     x_d: npt.NDArray[np.float64],
     theta0: npt.NDArray[np.float64],
-    threads: int,
+    sims: _Sims,
 ) -> npt.NDArray[np.int8]:
     """Exact outcomes of a few poses (x0 in D) split over the cores: confirmation poses lie
     on boundaries, where a simulation costs several times a typical one, so even eight of
@@ -165,8 +187,8 @@ def _outcomes_split(
     sides cost differently (on X 0.25/1: 0.19 ms a simulation on the seated side, 0.08 ms
     past the flip): taking every other pose, one thread got all of one side. They are dealt
     out back and forth (0, 1, 1, 0, 0, 1, ... for two threads), so each gets both."""
-    design, physics = atlas.design, atlas.physics
-    parts = min(threads, x_d.size)
+    design, physics = atlas.design, sims.physics
+    parts = min(sims.threads, x_d.size)
     if parts <= 1:
         return predict_batch(design, x_d * design.width, theta0, physics=physics).outcome
     chunks = _snake_chunks(x_d.size, parts)
@@ -228,7 +250,7 @@ def _interpolate(
     q: int,
     axes: list[_HalfAxis],
     resolution: tuple[float, float],
-    threads: int,
+    sims: _Sims,
 ) -> None:
     """Bracket each half-axis's first flip from the first flips of the two grid lines either
     side of it, where both start with the query's outcome: the flip is interpolated between
@@ -258,12 +280,12 @@ def _interpolate(
         if g - delta > 0.0:
             tries.append((h, np.array([g - delta, g + delta])))
     missed = []
-    for (h, offsets), codes in zip(tries, _probe(atlas, x_d, theta0, tries, threads), strict=True):
+    for (h, offsets), codes in zip(tries, _probe(atlas, x_d, theta0, tries, sims), strict=True):
         if codes[0] == q and codes[1] != q:
             h.lo, h.hi = float(offsets[0]), float(offsets[1])
         elif codes[0] == q or codes[1] != q:  # beyond the bracket, or before it
             missed.append((h, offsets, codes[0] == q))
-    _gallop(atlas, x_d, theta0, q, missed, resolution, threads)
+    _gallop(atlas, x_d, theta0, q, missed, resolution, sims)
 
 
 def _probe(
@@ -271,9 +293,9 @@ def _probe(
     x_d: float,
     theta0: float,
     tries: list[tuple[_HalfAxis, npt.NDArray[np.float64]]],
-    threads: int,
+    sims: _Sims,
 ) -> list[npt.NDArray[np.int8]]:
-    """Exact outcomes at offsets along several half-axes: one batch, split over ``threads``."""
+    """Exact outcomes at offsets along several half-axes: one batch, split over threads."""
     if not tries:
         return []
     poses = [_poses(x_d, theta0, h.axis, h.direction, off) for h, off in tries]
@@ -281,7 +303,7 @@ def _probe(
         atlas,
         np.concatenate([x for x, _ in poses]),
         np.concatenate([t for _, t in poses]),
-        threads,
+        sims,
     )
     return np.split(codes, np.cumsum([off.size for _, off in tries])[:-1])
 
@@ -293,7 +315,7 @@ def _gallop(
     q: int,
     missed: list[tuple[_HalfAxis, npt.NDArray[np.float64], bool]],
     resolution: tuple[float, float],
-    threads: int,
+    sims: _Sims,
 ) -> None:
     """Second round for brackets that did not confirm: the flip lies beyond (``ahead``) or
     before the confirmed bracket, usually within a few resolutions (the boundary curves
@@ -306,7 +328,7 @@ def _gallop(
         probes = offsets[1] + steps if ahead else offsets[0] - steps
         tries.append((h, probes[probes > 0.0]))
     for (h, probes), codes, (_, offsets, ahead) in zip(
-        tries, _probe(atlas, x_d, theta0, tries, threads), missed, strict=True
+        tries, _probe(atlas, x_d, theta0, tries, sims), missed, strict=True
     ):
         if ahead:  # outcome q up to offsets[1]: the first probe that differs closes it
             differ = np.flatnonzero(codes != q)
@@ -322,7 +344,9 @@ def _gallop(
                 h.hi = float(probes[j - 1]) if j else float(offsets[0])
 
 
-def _confirm(atlas: AcceptanceAtlas, x_d: float, theta0: float, q: int, h: _HalfAxis) -> None:
+def _confirm(
+    atlas: AcceptanceAtlas, x_d: float, theta0: float, q: int, h: _HalfAxis, sims: _Sims
+) -> None:
     """Walk one half-axis on the atlas to its first flip and confirm it exactly: sets
     ``h.lo`` and ``h.hi`` to a simulated bracket (``hi`` stays inf: no flip on the atlas,
     ``lo`` is then the last crossing inside it)."""
@@ -335,12 +359,12 @@ def _confirm(atlas: AcceptanceAtlas, x_d: float, theta0: float, q: int, h: _Half
         c = h.cursor + int(ahead[0])
         # The suspected flip and the crossing before it, unless that one is confirmed.
         window = h.offsets[max(h.cursor, c - 1) : c + 1]
-        codes = _exact(atlas, x_d, theta0, h, window)
+        codes = _exact(atlas, x_d, theta0, h, window, sims)
         if window.size == 2 and codes[0] != q:
             # The atlas missed a flip before the suspected one: simulate the crossings
             # between the last confirmed pose and it (the exact scan, over a short stretch).
             back = h.offsets[h.cursor : c - 1]
-            early = _exact(atlas, x_d, theta0, h, back) if back.size else codes[:0]
+            early = _exact(atlas, x_d, theta0, h, back, sims) if back.size else codes[:0]
             window = np.concatenate((back, window[:1]))
             codes = np.concatenate((early, codes[:1]))
         differ = np.flatnonzero(codes != q)
@@ -360,9 +384,10 @@ def _bisect_all(
     q: int,
     axes: list[_HalfAxis],
     resolution: tuple[float, float],
+    sims: _Sims,
 ) -> None:
     """Bisect every bracket to its axis's resolution, all half-axes in one batch per step."""
-    design, physics = atlas.design, atlas.physics
+    design, physics = atlas.design, sims.physics
     while True:
         active = [h for h in axes if math.isfinite(h.hi) and h.hi - h.lo > resolution[h.axis]]
         if not active:
@@ -388,6 +413,7 @@ def _beyond_atlas(
     outcome: Outcome,
     h: _HalfAxis,
     resolution: float,
+    sims: _Sims,
 ) -> float:
     """The exact scan from the last atlas crossing (``h.lo``) to the end of the exact
     search's range: its last node is ``ceil(limit / step) * step``, so the stretch between
@@ -407,7 +433,7 @@ def _beyond_atlas(
         limit=last,
         step=min(step, remaining),
         resolution=resolution,
-        physics=atlas.physics,
+        physics=sims.physics,
         first=h.lo,
     )
 
@@ -483,19 +509,17 @@ def margins_from_atlas(
     q = int(outcome)
     limit_x = 2.0 * design.mated_distance
     axes = _half_axes(atlas, x_d, theta0, limit_x)
-    _interpolate(atlas, x_d, theta0, q, axes, (lateral_res, angle_res), n_threads)
+    sims = _sims_for(atlas, q, n_threads)
+    _interpolate(atlas, x_d, theta0, q, axes, (lateral_res, angle_res), sims)
     for h in axes:
         if math.isinf(h.hi):
-            _confirm(atlas, x_d, theta0, q, h)
-    _bisect_all(atlas, x_d, theta0, q, axes, (lateral_res, angle_res))
+            _confirm(atlas, x_d, theta0, q, h, sims)
+    _bisect_all(atlas, x_d, theta0, q, axes, (lateral_res, angle_res), sims)
     found = []
     for h in axes:
         if math.isinf(h.hi):
-            found.append(
-                _beyond_atlas(
-                    atlas, x0, theta0, outcome, h, lateral_res if h.axis == 0 else angle_res
-                )
-            )
+            res = lateral_res if h.axis == 0 else angle_res
+            found.append(_beyond_atlas(atlas, x0, theta0, outcome, h, res, sims))
         else:
             found.append(h.hi * (design.width if h.axis == 0 else 1.0))
     return Margins(

@@ -185,7 +185,8 @@ def test_confirmation_poses_split_over_threads_give_the_batch_outcomes(threads: 
     atlas = build_atlas(xf.x_face(0.25, 1.0), **COARSE)
     rng = np.random.default_rng(3)
     xs, ts = rng.uniform(-1.0, 1.0, 9), rng.uniform(-1.0, 1.0, 9)
-    split = atlas_margins._outcomes_split(atlas, xs, ts, threads)
+    sims = atlas_margins._Sims(atlas.physics, threads)
+    split = atlas_margins._outcomes_split(atlas, xs, ts, sims)
     assert np.array_equal(split, xf.predict_batch(atlas.design, xs, ts).outcome)
 
 
@@ -231,9 +232,12 @@ def test_a_forked_child_confirms_with_a_pool_of_its_own() -> None:
 
     atlas = build_atlas(xf.x_face(0.25, 1.0), **COARSE)
     xs, ts = np.array([0.0, 0.1, 0.2]), np.array([0.0, 0.1, -0.1])
-    parent = atlas_margins._outcomes_split(atlas, xs, ts, 2)  # the parent's pool now exists
+    sims = atlas_margins._Sims(atlas.physics, 2)
+    parent = atlas_margins._outcomes_split(atlas, xs, ts, sims)  # the parent's pool now exists
     with multiprocessing.get_context("fork").Pool(1) as pool:
-        child = pool.apply_async(atlas_margins._outcomes_split, (atlas, xs, ts, 2)).get(timeout=120)
+        child = pool.apply_async(atlas_margins._outcomes_split, (atlas, xs, ts, sims)).get(
+            timeout=120
+        )
     assert np.array_equal(child, parent)
 
 
@@ -251,3 +255,41 @@ def test_snake_chunks_deal_every_pose_once(n: int, parts: int) -> None:
     assert sorted(np.concatenate(chunks).tolist()) == list(range(n))
     sizes = [c.size for c in chunks]
     assert max(sizes) - min(sizes) <= 2
+
+
+def test_a_miss_is_confirmed_by_its_approach_alone_with_the_same_margins(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # A query that never touches flips where the parts start to touch: one event (the
+    # first contact) decides it. Same margins as with the full simulation, each on an atlas
+    # of its own (the flips an atlas keeps steer the next query's search).
+    design = xf.x_face(0.25, 1.0)
+    rng = np.random.default_rng(11)
+    queries = [(1.5 + rng.normal(0.0, 0.01), 0.3 + rng.normal(0.0, 0.005)) for _ in range(4)]
+    queries += [(-1.6, -0.2), (1.7, 0.0)]
+    outcomes = [xf.predict(design, x, t, path=False).outcome for x, t in queries]
+    assert set(outcomes) == {xf.Outcome.NO_CONTACT}
+    asked: list[int] = []
+    real_batch = atlas_margins.predict_batch
+
+    def spy(*args: object, physics: xf.Physics, **kwargs: object) -> object:
+        asked.append(physics.settings.max_events)
+        return real_batch(*args, physics=physics, **kwargs)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(atlas_margins, "predict_batch", spy)
+    one_event = build_atlas(design, **COARSE)
+    fast = [
+        xf.margins_from_atlas(one_event, x, t, o)
+        for (x, t), o in zip(queries, outcomes, strict=True)
+    ]
+    assert set(asked) == {1}  # and not empty: every simulation stopped at its first contact
+    monkeypatch.setattr(
+        atlas_margins,
+        "_sims_for",
+        lambda atlas, q, threads: atlas_margins._Sims(atlas.physics, threads),
+    )
+    full = build_atlas(design, **COARSE)
+    slow = [
+        xf.margins_from_atlas(full, x, t, o) for (x, t), o in zip(queries, outcomes, strict=True)
+    ]
+    assert fast == slow

@@ -93,3 +93,29 @@ def test_reach_margins_leave_other_outcomes_to_the_search() -> None:
     design = xf.x_face(0.25, 1.0)
     assert reach_margins(design, 0.1, 0.0, xf.Outcome.SEATED) is None
     assert reach_margins(design, 3.0, 4.0, xf.Outcome.OUT_OF_REACH) is None  # |theta0| > pi
+
+
+def test_a_miss_is_searched_by_its_approach_alone_with_the_same_margins(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    from xface_core import margins as margins_module
+
+    design = xf.x_face(0.25, 1.0)
+    x0, theta0 = 1.5 * design.width, 0.3
+    outcome = xf.predict(design, x0, theta0, path=False).outcome
+    assert outcome is xf.Outcome.NO_CONTACT
+    fast = margins_module.outcome_margins(design, x0, theta0, outcome)
+    monkeypatch.setattr(margins_module, "search_physics", lambda d, physics, o, y: physics)
+    assert margins_module.outcome_margins(design, x0, theta0, outcome) == fast
+
+
+def test_only_a_miss_started_clear_of_the_base_is_searched_by_its_approach() -> None:
+    from xface_core.margins import search_physics
+    from xface_core.runner import clear_start_height
+
+    design, physics = xf.x_face(0.25, 1.0), xf.Physics()
+    clear = clear_start_height(design) * design.width
+    assert search_physics(design, physics, xf.Outcome.NO_CONTACT, None).settings.max_events == 1
+    assert search_physics(design, physics, xf.Outcome.NO_CONTACT, clear).settings.max_events == 1
+    assert search_physics(design, physics, xf.Outcome.NO_CONTACT, 0.5 * clear) is physics
+    assert search_physics(design, physics, xf.Outcome.SEATED, None) is physics

@@ -464,9 +464,9 @@ def test_streamed_margins_run_on_the_configured_threads(
     asked: list[int] = []
     real = atlas_margins._outcomes_split
 
-    def spy(atlas: Any, xs: Any, ts: Any, threads: int) -> Any:
-        asked.append(threads)
-        return real(atlas, xs, ts, threads)
+    def spy(atlas: Any, xs: Any, ts: Any, sims: Any) -> Any:
+        asked.append(sims.threads)
+        return real(atlas, xs, ts, sims)
 
     monkeypatch.setattr(atlas_margins, "_outcomes_split", spy)
     atlas = build_atlas(config.design, lateral_step=1 / 32, angle_step=math.pi / 128)
