@@ -440,8 +440,8 @@ def touching_pairs(
         # A vertex within CORNER_REACH of an edge's end is at that corner, so it touches
         # every edge that ends there, whatever its gap to each line (up to CORNER_REACH).
         # At a corner meeting a corner, the gaps of the edges that do not carry the
-        # contact are the state's error (1e-9 D after a step of 0.05 rad), and dropping
-        # one dropped a way of moving on: the parts jammed where they slip on.
+        # contact are the state's error (about 1e-9 D), and dropping one dropped a way of
+        # moving on: the parts jammed where they slip on (docs/contact.md).
         at_corner = corner_distance(row, g, u) <= CORNER_REACH
         if g > touch_tol and not at_corner:
             continue
