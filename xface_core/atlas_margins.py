@@ -42,7 +42,7 @@ from .margins import (
 from .outcome import Outcome
 from .physics import Physics
 from .result import Margins
-from .runner import DEFAULT_THREADS, check_pose, clear_start_height, predict_batch
+from .runner import DEFAULT_THREADS, check_pose, clear_start_height, run_flat
 
 __all__ = ["margins_from_atlas"]
 
@@ -94,8 +94,10 @@ def _half_axes(
     atlas: AcceptanceAtlas, x_d: float, theta0: float, limit_x: float
 ) -> list[_HalfAxis]:
     """The four half-axis searches with the atlas's outcomes along them."""
-    i_, k_ = atlas.cell_index(x_d, theta0)
-    i, k = int(i_), int(k_)
+    # atlas.cell_index for one pose, without its array conversions (about 20 us).
+    i = math.floor((x_d - atlas.x0[0]) / atlas.lateral_step)
+    k = math.floor((theta0 - atlas.theta0[0]) / atlas.angle_step)
+    i, k = min(max(i, 0), atlas.x0.size - 2), min(max(k, 0), atlas.theta0.size - 2)
     out = atlas.outcomes
     row = np.where(out[:, k] == out[:, k + 1], out[:, k], -1).astype(np.int8)
     col = np.where(out[i, :] == out[i + 1, :], out[i, :], -1).astype(np.int8)
@@ -142,9 +144,8 @@ def _exact(
     sims: _Sims,
 ) -> npt.NDArray[np.int8]:
     """Exact outcomes at offsets along one half-axis (one batch)."""
-    design = atlas.design
     xs, ts = _poses(x_d, theta0, h.axis, h.direction, offsets)
-    return predict_batch(design, xs * design.width, ts, physics=sims.physics).outcome
+    return _outcomes(atlas, xs, ts, sims.physics, None)
 
 
 _POOL: ThreadPoolExecutor | None = None
@@ -187,24 +188,33 @@ def _outcomes_split(
     sides cost differently (on X 0.25/1: 0.19 ms a simulation on the seated side, 0.08 ms
     past the flip): taking every other pose, one thread got all of one side. They are dealt
     out back and forth (0, 1, 1, 0, 0, 1, ... for two threads), so each gets both."""
-    design, physics = atlas.design, sims.physics
     parts = min(sims.threads, x_d.size)
     if parts <= 1:
-        return predict_batch(design, x_d * design.width, theta0, physics=physics).outcome
+        return _outcomes(atlas, x_d, theta0, sims.physics)
     chunks = _snake_chunks(x_d.size, parts)
     futures = [
-        _pool().submit(
-            predict_batch, design, x_d[c] * design.width, theta0[c], physics=physics, threads=1
-        )
-        for c in chunks[1:]
+        _pool().submit(_outcomes, atlas, x_d[c], theta0[c], sims.physics) for c in chunks[1:]
     ]
     out = np.empty(x_d.size, dtype=np.int8)
-    out[chunks[0]] = predict_batch(
-        design, x_d[chunks[0]] * design.width, theta0[chunks[0]], physics=physics, threads=1
-    ).outcome
+    out[chunks[0]] = _outcomes(atlas, x_d[chunks[0]], theta0[chunks[0]], sims.physics)
     for c, future in zip(chunks[1:], futures, strict=True):
-        out[c] = future.result().outcome
+        out[c] = future.result()
     return out
+
+
+def _outcomes(
+    atlas: AcceptanceAtlas,
+    x_d: npt.NDArray[np.float64],
+    theta0: npt.NDArray[np.float64],
+    physics: Physics,
+    threads: int | None = 1,
+) -> npt.NDArray[np.int8]:
+    """Exact outcomes of poses (x0 in D) on ``threads`` (None: ``run_flat``'s split of a
+    large batch): the engine's flat entry, without ``predict_batch``'s conversions (its
+    broadcasting, units and result arrays cost about 25 us a call, as much as three or four
+    simulations of a miss)."""
+    runs = run_flat(atlas.design, x_d, theta0, physics, threads)
+    return np.asarray(runs["outcome"], dtype=np.int8)
 
 
 def _thread_count(threads: int | None) -> int:
@@ -387,7 +397,6 @@ def _bisect_all(
     sims: _Sims,
 ) -> None:
     """Bisect every bracket to its axis's resolution, all half-axes in one batch per step."""
-    design, physics = atlas.design, sims.physics
     while True:
         active = [h for h in axes if math.isfinite(h.hi) and h.hi - h.lo > resolution[h.axis]]
         if not active:
@@ -397,7 +406,7 @@ def _bisect_all(
         for n, h in enumerate(active):
             x, t = _poses(x_d, theta0, h.axis, h.direction, [0.5 * (h.lo + h.hi)])
             xs[n], ts[n] = x[0], t[0]
-        codes = predict_batch(design, xs * design.width, ts, physics=physics).outcome
+        codes = _outcomes(atlas, xs, ts, sims.physics, None)
         for h, code in zip(active, codes, strict=True):
             mid = 0.5 * (h.lo + h.hi)
             if code == q:

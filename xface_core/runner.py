@@ -68,15 +68,10 @@ def start_heights(design: FaceDesign, theta0: npt.ArrayLike) -> FloatArray:
     for any x0, plus a small clearance: the default start of the approach, per angle
     (vectorised; non-finite angles give NaN)."""
     th = np.asarray(theta0, dtype=np.float64)
-    finite = np.isfinite(th)
-    th = np.where(finite, th, 0.0)
     table = pair_table(design)
-    v = table.moving_vertices
-    # A moving body point v sits at y_M - (sin th v_x + cos th v_y).
-    reach = (np.sin(th)[..., None] * v[:, 0] + np.cos(th)[..., None] * v[:, 1]).max(axis=-1)
-    return np.asarray(
-        np.where(finite, table.base_top + reach + START_CLEARANCE, np.nan), dtype=np.float64
-    )
+    flat = np.ascontiguousarray(th).reshape(-1)
+    heights = _engine.start_heights_of(table.moving_vertices, table.base_top, START_CLEARANCE, flat)
+    return np.asarray(heights.reshape(th.shape), dtype=np.float64)
 
 
 def clear_start_height(design: FaceDesign) -> float:

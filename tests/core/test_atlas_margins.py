@@ -144,13 +144,13 @@ def test_with_the_grid_flips_known_a_query_takes_eight_simulations(
     for _ in range(2):  # the second query near a boundary bisects its grid lines
         xf.margins_from_atlas(atlas, 0.05, 0.1, outcome)
     calls: list[int] = []
-    counted = atlas_margins.predict_batch
+    counted = atlas_margins.run_flat
 
     def counting(design: xf.FaceDesign, x0: np.ndarray, *args: object, **kw: object) -> object:
         calls.append(len(x0))
         return counted(design, x0, *args, **kw)  # type: ignore[arg-type]
 
-    monkeypatch.setattr(atlas_margins, "predict_batch", counting)
+    monkeypatch.setattr(atlas_margins, "run_flat", counting)
     got = xf.margins_from_atlas(atlas, 0.05 + 1e-4, 0.1 + 1e-4, outcome)
     exact = xf.outcome_margins(design, 0.05 + 1e-4, 0.1 + 1e-4, outcome)
     assert sum(calls) == 8
@@ -270,13 +270,15 @@ def test_a_miss_is_confirmed_by_its_approach_alone_with_the_same_margins(
     outcomes = [xf.predict(design, x, t, path=False).outcome for x, t in queries]
     assert set(outcomes) == {xf.Outcome.NO_CONTACT}
     asked: list[int] = []
-    real_batch = atlas_margins.predict_batch
+    real_batch = atlas_margins.run_flat
 
-    def spy(*args: object, physics: xf.Physics, **kwargs: object) -> object:
+    def spy(
+        design: xf.FaceDesign, xs: np.ndarray, ts: np.ndarray, physics: xf.Physics, *args: object
+    ) -> object:
         asked.append(physics.settings.max_events)
-        return real_batch(*args, physics=physics, **kwargs)  # type: ignore[arg-type]
+        return real_batch(design, xs, ts, physics, *args)  # type: ignore[arg-type]
 
-    monkeypatch.setattr(atlas_margins, "predict_batch", spy)
+    monkeypatch.setattr(atlas_margins, "run_flat", spy)
     one_event = build_atlas(design, **COARSE)
     fast = [
         xf.margins_from_atlas(one_event, x, t, o)

@@ -20,6 +20,7 @@ from .simulate import (
     simulate_many,
     simulate_one,
     simulate_path,
+    start_heights_of,
 )
 
 # Before anything compiles or loads from the cache: drop a cache built from other sources.
@@ -37,4 +38,5 @@ __all__ = [
     "simulate_many",
     "simulate_one",
     "simulate_path",
+    "start_heights_of",
 ]

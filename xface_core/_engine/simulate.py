@@ -116,6 +116,23 @@ def lowest_reach(vertices: FloatArray, theta: float) -> float:
     return best
 
 
+@njit(cache=True, nogil=True)
+def start_heights_of(
+    vertices: FloatArray, base_top: float, clearance: float, thetas: FloatArray
+) -> FloatArray:
+    """Per angle the lowest clear height plus ``clearance`` (D; ``runner.start_heights``,
+    in the same order of operations as ``runner.start_height``); NaN for a non-finite
+    angle. Compiled: a confirmation batch of eight angles cost 7.7 us in numpy."""
+    out = np.empty(thetas.shape[0])
+    for k in range(thetas.shape[0]):
+        th = thetas[k]
+        if math.isfinite(th):
+            out[k] = base_top + lowest_reach(vertices, th) + clearance
+        else:
+            out[k] = math.nan
+    return out
+
+
 # ---- one pose for the typed API (xface_core.runner.simulate_pose) ------------------------
 # Called once per prediction, so the Python around the kernel matters as much as the kernel
 # for short runs (about 10 us). These entries take plain arrays and floats, which numba's

@@ -21,7 +21,7 @@ from xface_core._engine.records import (
 from xface_core._engine.simulate import lowest_reach, simulate_many, simulate_one
 from xface_core.contact import pair_table
 from xface_core.physics import Physics
-from xface_core.runner import engine_model, start_heights
+from xface_core.runner import engine_model, start_height, start_heights
 
 DESIGN = xf.x_face(0.5, 1.0)
 MODEL = engine_model(DESIGN)
@@ -105,3 +105,16 @@ def test_lowest_reach_is_the_deepest_body_point(theta: float) -> None:
     v = pair_table(DESIGN).moving_vertices
     expected = np.max(np.sin(theta) * v[:, 0] + np.cos(theta) * v[:, 1])
     assert lowest_reach(v, theta) == pytest.approx(expected, abs=1e-15)
+
+
+def test_start_heights_are_the_single_angle_start_per_angle_and_nan_when_not_finite() -> None:
+    # The batch start (runner.start_heights, compiled) and the one-pose start
+    # (runner.start_height) must be the same bit for bit: a prediction and a batch of the
+    # same pose start at the same height.
+    thetas = np.array([[0.0, 0.3, -1.2], [np.pi, -2.0 * np.pi, np.nan]])
+    heights = start_heights(DESIGN, thetas)
+    assert heights.shape == thetas.shape
+    for th, y in zip(thetas.ravel()[:-1], heights.ravel()[:-1], strict=True):
+        assert y == start_height(DESIGN, float(th))
+    assert np.isnan(heights[1, 2])
+    assert np.isnan(start_heights(DESIGN, np.inf))
