@@ -42,7 +42,7 @@ from .margins import (
 from .outcome import Outcome
 from .physics import Physics
 from .result import Margins
-from .runner import DEFAULT_THREADS, check_pose, clear_start_height, run_flat
+from .runner import DEFAULT_THREADS, check_pose, clear_start_height, run_flat, thread_count
 
 __all__ = ["margins_from_atlas"]
 
@@ -215,15 +215,6 @@ def _outcomes(
     simulations of a miss)."""
     runs = run_flat(atlas.design, x_d, theta0, physics, threads)
     return np.asarray(runs["outcome"], dtype=np.int8)
-
-
-def _thread_count(threads: int | None) -> int:
-    """``threads`` checked (an integer >= 1), or one per core for None."""
-    if threads is None:
-        return DEFAULT_THREADS
-    if type(threads) is not int or threads < 1:  # bool is an int subclass: refused too
-        raise XfaceValueError(f"threads must be an integer >= 1, got {threads!r}")
-    return threads
 
 
 def _snake_chunks(n: int, parts: int) -> list[npt.NDArray[np.intp]]:
@@ -503,7 +494,7 @@ def margins_from_atlas(
     lateral_res, angle_res = (float(r) for r in resolution)
     if not (0.0 < lateral_res < math.inf and 0.0 < angle_res < math.inf):
         raise XfaceValueError(f"resolution must be two finite values > 0, got {resolution!r}")
-    n_threads = _thread_count(threads)
+    n_threads = thread_count(threads)
     x_d = x0 / design.width
     # The atlas ran every pose from just clear of the base for its angle. A start at least
     # clear of the base at every angle (runner.clear_start_height) only translates further to

@@ -20,7 +20,7 @@ import numpy.typing as npt
 from . import _engine
 from .codes import Outcome, Reason
 from .contact import pair_table
-from .errors import InputError
+from .errors import InputError, XfaceValueError
 from .geometry import FaceDesign
 from .physics import Physics, SolverSettings
 from .result import AlignmentPath, Counters, Prediction
@@ -56,6 +56,18 @@ START_CLEARANCE = 0.01
 
 #: Threads a batch uses by default (asked once: the answer does not change while we run).
 DEFAULT_THREADS = os.cpu_count() or 1
+
+
+def thread_count(threads: object) -> int:
+    """``threads`` checked: an integer >= 1 (a numpy integer too; a bool is refused), or one
+    per core for None. Raises :class:`XfaceValueError` naming the value otherwise (a float or
+    a string used to end in a TypeError deep in the thread split, 0 and negatives were
+    silently taken as 1)."""
+    if threads is None:
+        return DEFAULT_THREADS
+    if isinstance(threads, int | np.integer) and not isinstance(threads, bool) and threads >= 1:
+        return int(threads)
+    raise XfaceValueError(f"threads must be an integer >= 1, got {threads!r}")
 
 
 def engine_model(design: FaceDesign) -> _engine.Model:
@@ -269,9 +281,10 @@ def predict_batch(
     :func:`xface_core.predict` does); a non-finite or absurd entry gives ``INVALID_INPUT``.
 
     ``physics`` (or, equivalently, the loose ``damping_ratio``, ``friction`` and
-    ``settings``) as for :func:`xface_core.predict`. ``threads`` splits a large batch over
-    threads (default: one per core); the compiled engine releases the GIL, so they run in
-    parallel, and every pose's result is the same bit for bit whatever the split.
+    ``settings``) as for :func:`xface_core.predict`. ``threads`` (an integer >= 1, else
+    :class:`XfaceValueError`) splits a large batch over threads (default: one per core); the
+    compiled engine releases the GIL, so they run in parallel, and every pose's result is the
+    same bit for bit whatever the split.
 
     Non-finite or absurd entries give ``INVALID_INPUT`` in their cell instead of raising,
     like shapely's vectorised functions return NaN for missing input.
@@ -330,8 +343,7 @@ def run_flat(
         ys = np.where(valid, ys, 0.0)
     model = engine_model(design)
     opts = _engine.make_options(physics)
-    n_threads = DEFAULT_THREADS if threads is None else max(1, threads)
-    n_threads = min(n_threads, max(1, len(xs) // MIN_POSES_PER_THREAD))
+    n_threads = min(thread_count(threads), max(1, len(xs) // MIN_POSES_PER_THREAD))
     if n_threads == 1:
         return _engine.simulate_many(model, opts, xs, ts, ys, valid)
     # Interleaved chunks balance the load: hard poses cluster in parts of a map.

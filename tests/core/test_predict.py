@@ -109,6 +109,24 @@ def test_batch_marks_bad_entries_invalid() -> None:
     ]
 
 
+@pytest.mark.parametrize("threads", [0, -2, 1.5, True, "2"])
+def test_batch_refuses_a_thread_count_that_is_not_a_positive_integer(threads: object) -> None:
+    # A large batch (split over threads) and a small one (run on the caller's thread) alike:
+    # 1.5 and "2" ended in a TypeError inside the split, 0 and -2 were taken as 1.
+    design = xf.x_face(0.25, 1.0)
+    for n in (2, 300):
+        with pytest.raises(xf.XfaceValueError, match="threads must be an integer >= 1"):
+            xf.predict_batch(design, np.zeros(n), np.zeros(n), threads=threads)  # type: ignore[arg-type]
+
+
+def test_batch_takes_a_numpy_integer_thread_count() -> None:
+    design = xf.x_face(0.25, 1.0)
+    xs = np.linspace(-0.5, 0.5, 300)
+    two = xf.predict_batch(design, xs, 0.1, threads=np.int64(2))
+    one = xf.predict_batch(design, xs, 0.1, threads=1)
+    assert np.array_equal(two.outcome, one.outcome)
+
+
 def test_width_scales_lengths_not_outcomes() -> None:
     small = xf.predict(xf.x_face(0.5, 1.0, width=1e-3), 0.3e-3, 0.1)
     unit = xf.predict(xf.x_face(0.5, 1.0), 0.3, 0.1)
