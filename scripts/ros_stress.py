@@ -118,17 +118,24 @@ def run_stress(
     latencies_ms: list[float] = []
     compute_ms: list[float] = []
     outcomes: dict[str, int] = {}
+    # Per outcome: the latency and simulation time of each status (a run's median moves with
+    # the mix of outcomes the worker happens to pick under load: newest wins).
+    by_outcome: dict[str, tuple[list[float], list[float]]] = {}
     diagnostics: list[dict[str, str]] = []
 
     def on_status(status: DiagnosticStatus) -> None:
         now = time.time_ns()
         values = {kv.key: kv.value for kv in status.values}
+        outcome = values.get("outcome", "?")
         with lock:
-            outcomes[values.get("outcome", "?")] = outcomes.get(values.get("outcome", "?"), 0) + 1
+            outcomes[outcome] = outcomes.get(outcome, 0) + 1
+            lat_of, comp_of = by_outcome.setdefault(outcome, ([], []))
             if "input_stamp_ns" in values:
                 latencies_ms.append((now - int(values["input_stamp_ns"])) * 1e-6)
+                lat_of.append(latencies_ms[-1])
             if "compute_time_ms" in values:
                 compute_ms.append(float(values["compute_time_ms"]))
+                comp_of.append(compute_ms[-1])
 
     def on_diagnostics(array: DiagnosticArray) -> None:
         for status in array.status:
@@ -227,6 +234,14 @@ def run_stress(
             lat = list(latencies_ms)
             comp = list(compute_ms)
             outs = dict(outcomes)
+            per_outcome = {
+                name: {
+                    "statuses": len(lat_of),
+                    "latency_ms_median": statistics.median(lat_of) if lat_of else math.nan,
+                    "compute_ms_median": statistics.median(comp_of) if comp_of else math.nan,
+                }
+                for name, (lat_of, comp_of) in sorted(by_outcome.items())
+            }
         received = int(last_diag.get("received_total", "0"))
         result.update(
             sent=sent,
@@ -244,6 +259,7 @@ def run_stress(
             latency_ms_p99=percentile(lat, 99.0),
             latency_ms_max=max(lat, default=math.nan),
             compute_ms_median=statistics.median(comp) if comp else math.nan,
+            by_outcome=per_outcome,
             service_calls=len(service_times_ms) + service_failures,
             service_answered=len(service_times_ms),
             service_ms_median=statistics.median(service_times_ms) if service_times_ms else math.nan,
@@ -293,6 +309,12 @@ def summary(r: dict[str, Any]) -> str:
             f"({r['statuses_received']} statuses)"
         ),
         f"simulation per pose: median {r['compute_ms_median']:.2f} ms",
+        "per outcome (statuses, median latency, median simulation): "
+        + "; ".join(
+            f"{name} {v['statuses']}, {v['latency_ms_median']:.2f} ms, "
+            f"{v['compute_ms_median']:.2f} ms"
+            for name, v in r.get("by_outcome", {}).items()
+        ),
         (
             f"service during the stream: {r['service_answered']}/{r['service_calls']} "
             f"answered, median {r['service_ms_median']:.1f} ms, max {r['service_ms_max']:.1f} ms"

@@ -56,3 +56,5 @@ def test_node_survives_a_1khz_stream_and_accounts_for_every_pose(
         r["node_predicted"] + r["node_input_errors"] + r["node_dropped_newest_wins"]
     )
     assert r["statuses_received"] <= r["node_predicted"] + r["node_input_errors"]
+    # The per-outcome split accounts for every status with a stamp.
+    assert sum(v["statuses"] for v in r["by_outcome"].values()) == r["statuses_received"]
