@@ -1,0 +1,149 @@
+#!/usr/bin/env python3
+"""Where the compiled kernel spends its time: a ``perf`` profile with the engine's names.
+
+    perf record -F 2000 -o /tmp/kernel.data \\
+        .venv/bin/python scripts/profile_kernel.py --face S --h-over-d 0.5 --r-p 1 --seconds 30
+    .venv/bin/python scripts/profile_kernel.py --report /tmp/kernel.data
+
+``perf`` sees numba's machine code as anonymous memory. The first form compiles the engine
+afresh (into a temporary numba cache: a kernel loaded from the cache knows only its entry
+points), writes ``/tmp/perf-<pid>.map`` with the address of every engine function in the
+batch entry's code (each function up to the next one's address), then runs 41 x 41 maps of
+the design on one thread for ``--seconds``. The second form prints the share of each engine
+function and libm routine among the samples in engine code and libm (the compilation, the
+interpreter and numpy are left out), largest first.
+
+Functions LLVM inlined into their caller count as the caller; libm's ``sincos`` and
+``hypot`` are listed on their own.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import os
+import pkgutil
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+
+def write_perf_map(entry: object, package: object, path: Path) -> int:
+    """A perf map (``address size name`` per line, hex) at ``path`` of the engine functions
+    linked into ``entry``'s code; the number of functions found."""
+    from numba.core.registry import CPUDispatcher
+
+    names: dict[str, str] = {}
+    for info in pkgutil.iter_modules(package.__path__):  # type: ignore[attr-defined]
+        module = importlib.import_module(f"{package.__name__}.{info.name}")  # type: ignore[attr-defined]
+        for value in vars(module).values():
+            if isinstance(value, CPUDispatcher):
+                for cres in value.overloads.values():
+                    fndesc = cres.fndesc
+                    names[fndesc.mangled_name] = (
+                        f"{fndesc.modname.rsplit('.', 1)[-1]}.{fndesc.qualname}"
+                    )
+    library = next(iter(entry.overloads.values())).library  # type: ignore[attr-defined]
+    found = []
+    for mangled, name in names.items():
+        try:
+            address = library.get_pointer_to_function(mangled)
+        except Exception:  # a function that was never linked in: not in the profile
+            continue
+        if address:
+            found.append((address, name))
+    found.sort()
+    if not found:
+        return 0
+    with open(path, "w", encoding="utf-8") as out:
+        ends = [a for a, _ in found[1:]] + [found[-1][0] + 65536]
+        for (address, name), end in zip(found, ends, strict=True):
+            out.write(f"{address:x} {min(end - address, 1 << 20):x} {name}\n")
+    return len(found)
+
+
+def _run(args: argparse.Namespace, argv: list[str]) -> int:
+    if "NUMBA_CACHE_DIR" not in os.environ:
+        # Restart with an empty cache, so that every engine function is compiled here.
+        with tempfile.TemporaryDirectory(prefix="xface-profile-") as cache:
+            env = dict(os.environ, NUMBA_CACHE_DIR=cache)
+            return subprocess.call([sys.executable, __file__, *argv], env=env)
+    import numpy as np
+
+    import xface_core as xf
+    import xface_core._engine as engine
+    from xface_core.grids import theta_grid, x0_grid
+
+    makers = {"X": xf.x_face, "V": xf.v_face, "S": xf.s_face}
+    design = makers[args.face](args.h_over_d, args.r_p)
+    x, t = np.meshgrid(x0_grid(41), theta_grid(41), indexing="ij")
+    xf.predict_batch(design, x, t, threads=1)  # compiles
+    n = write_perf_map(engine.simulate_many, engine, Path(f"/tmp/perf-{os.getpid()}.map"))
+    print(f"perf map: {n} engine functions", file=sys.stderr)
+    maps = 0
+    t0 = time.perf_counter()
+    while time.perf_counter() - t0 < args.seconds:
+        xf.predict_batch(design, x, t, threads=1)
+        maps += 1
+    print(f"{maps} maps in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
+    return 0
+
+
+def shares(perf_report: str) -> dict[str, float]:
+    """Each engine function's and libm routine's share (%) of the samples in engine code and
+    libm, from ``perf report --sort dso,symbol --stdio`` output (other lines are ignored)."""
+    found: dict[str, float] = {}
+    for line in perf_report.splitlines():
+        if line.startswith("#") or "%" not in line or "[.]" not in line:
+            continue
+        if "[JIT]" not in line and "libm" not in line:
+            continue
+        name = line.split("[.]", 1)[1].split()[0]
+        found[name] = found.get(name, 0.0) + float(line.split("%", 1)[0])
+    total = sum(found.values())
+    return {k: 100.0 * v / total for k, v in sorted(found.items(), key=lambda kv: -kv[1])}
+
+
+def _report(data: Path) -> int:
+    if not data.is_file():
+        print(f"no perf data at {data} (record it with perf record, see --help)", file=sys.stderr)
+        return 2
+    if shutil.which("perf") is None:
+        print("perf is not installed (linux-tools)", file=sys.stderr)
+        return 2
+    out = subprocess.run(
+        ["perf", "report", "-i", str(data), "--no-children", "--sort", "dso,symbol", "--stdio"],
+        capture_output=True, text=True, check=True,
+    )  # fmt: skip
+    found = shares(out.stdout)
+    if not found:
+        print("no samples in engine code or libm", file=sys.stderr)
+        return 1
+    for name, share in found.items():
+        if share >= 0.2:
+            print(f"{share:6.2f} %  {name}")
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(
+        description=__doc__.split("\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog=__doc__.split("\n\n", 1)[1],
+    )  # fmt: skip
+    parser.add_argument("--face", choices=["X", "V", "S"], default="S")
+    parser.add_argument("--h-over-d", type=float, default=0.5)
+    parser.add_argument("--r-p", type=float, default=1.0)
+    parser.add_argument("--seconds", type=float, default=30.0, help="time spent in maps")
+    parser.add_argument("--report", type=Path, help="print the shares of a recorded profile")
+    argv = sys.argv[1:] if argv is None else argv
+    args = parser.parse_args(argv)
+    if args.report is not None:
+        return _report(args.report)
+    return _run(args, argv)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,60 @@
+"""scripts/profile_kernel.py: a perf map of the compiled engine, and the shares of a profile.
+
+The profile itself needs ``perf`` and half a minute; the tests check the map's form and the
+report's arithmetic on a sample of ``perf report`` output.
+"""
+
+from __future__ import annotations
+
+import importlib
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import xface_core as xf
+import xface_core._engine as engine
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+sys.path.insert(0, str(ROOT / "scripts"))
+profile = importlib.import_module("profile_kernel")
+
+SAMPLE = """\
+# Samples: 1K of event 'cpu-clock'
+#
+    50.00%  python   [.] _PyEval_EvalFrameDefault   -      -
+    30.00%  [JIT] tid 7   [.] scan._contact_events   -      -
+    10.00%  libm.so.6     [.] __sincos_fma           -      -
+     5.00%  [JIT] tid 7   [.] pairs.eval_pair        -      -
+     5.00%  [JIT] tid 8   [.] scan._contact_events   -      -
+"""
+
+
+def test_shares_count_engine_code_and_libm_only() -> None:
+    got = profile.shares(SAMPLE)
+    assert list(got) == ["scan._contact_events", "__sincos_fma", "pairs.eval_pair"]
+    assert got["scan._contact_events"] == pytest.approx(70.0)
+    assert got["__sincos_fma"] == pytest.approx(20.0)
+    assert sum(got.values()) == pytest.approx(100.0)
+
+
+def test_perf_map_lists_the_batch_entry_with_its_address(tmp_path: Path) -> None:
+    xf.predict_batch(xf.v_face(0.5, 1.0), np.zeros(2), np.zeros(2), threads=1)
+    path = tmp_path / "perf-1.map"
+    n = profile.write_perf_map(engine.simulate_many, engine, path)
+    rows = [line.split() for line in path.read_text("utf-8").splitlines()]
+    assert n == len(rows) >= 1
+    assert "simulate.simulate_many" in [name for _, _, name in rows]
+    for address, size, _ in rows:
+        assert int(address, 16) > 0
+        assert int(size, 16) > 0
+
+
+def test_a_missing_profile_is_refused_without_a_traceback(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert profile.main(["--report", str(tmp_path / "none.data")]) == 2
+    assert "no perf data" in capsys.readouterr().err
