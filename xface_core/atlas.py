@@ -110,6 +110,43 @@ class FlipStore:
         with self._lock:
             return len(self._known)
 
+    def arrays(self) -> tuple[npt.NDArray[np.int64], FloatArray]:
+        """The known flips as arrays: keys (n, 3) and brackets (n, 2), for saving."""
+        with self._lock:
+            items = sorted(self._known.items())
+        keys = np.array([k for k, _ in items], dtype=np.int64).reshape(-1, 3)
+        brackets = np.array([b for _, b in items], dtype=np.float64).reshape(-1, 2)
+        return keys, brackets
+
+    def add_arrays(
+        self, keys: npt.ArrayLike, brackets: npt.ArrayLike, shape: tuple[int, int]
+    ) -> None:
+        """Know the flips of :meth:`arrays` again (a saved atlas loaded). Raises
+        ``ValueError`` for arrays that cannot be an atlas's flips on a grid of ``shape``
+        (nodes along x0, along theta0): a foreign or damaged file is rebuilt, not trusted."""
+        k = np.asarray(keys)
+        b = np.asarray(brackets, dtype=np.float64)
+        if k.ndim != 2 or k.shape[1] != 3 or b.shape != (k.shape[0], 2):
+            raise ValueError("flip arrays of the wrong shape")
+        if k.shape[0] == 0:
+            return
+        if not np.issubdtype(k.dtype, np.integer):
+            raise ValueError("flip keys must be integers")
+        axis, line, node = k[:, 0], k[:, 1], k[:, 2]
+        # axis 0: line indexes theta0, node indexes x0; axis 1 the other way round.
+        n_line = np.where(axis == 0, shape[1], shape[0])
+        n_node = np.where(axis == 0, shape[0], shape[1])
+        ok = (
+            np.isin(axis, (0, 1))
+            & (line >= 0) & (line < n_line) & (node >= 0) & (node < n_node - 1)
+            & np.all(np.isfinite(b), axis=1) & (b[:, 0] < b[:, 1])
+        )  # fmt: skip
+        if not bool(np.all(ok)):
+            raise ValueError("flip arrays that do not fit the grid")
+        with self._lock:
+            for key, bracket in zip(k.tolist(), b.tolist(), strict=True):
+                self._known[(key[0], key[1], key[2])] = (bracket[0], bracket[1])
+
     def __getstate__(self) -> dict[str, object]:
         # An atlas goes to process-pool workers by pickle: the flips go with it, a lock cannot.
         with self._lock:
@@ -223,7 +260,9 @@ class AcceptanceAtlas:
 
     def save(self, path: str | Path) -> Path:
         """Write the atlas to an ``.npz`` file (``build_atlas(..., cache_dir=...)`` reads it
-        back for the same design, physics and grid; the design itself is not stored)."""
+        back for the same design, physics and grid; the design itself is not stored), with
+        the grid-line flips found so far: saved again later, a restart also keeps those."""
+        flip_keys, flip_brackets = self.flips.arrays()
         target = Path(path)
         target.parent.mkdir(parents=True, exist_ok=True)
         tmp = target.with_name(target.name + ".tmp.npz")
@@ -235,6 +274,8 @@ class AcceptanceAtlas:
             outcomes=self.outcomes,
             simulated=self.simulated,
             start_clearance=np.array(self.start_clearance),
+            flip_keys=flip_keys,
+            flip_brackets=flip_brackets,
         )
         # Rename last: a reader never sees half a file, even with two builders racing.
         tmp.replace(target)
@@ -406,7 +447,7 @@ def _load(path: Path, design: FaceDesign, physics: Physics, key: str) -> Accepta
         stored = str(data["key"])
         if stored != key:
             raise XfaceValueError(f"{path}: stored key {stored} is not the expected {key}")
-        return AcceptanceAtlas(
+        atlas = AcceptanceAtlas(
             design=design,
             physics=physics,
             key=stored,
@@ -416,6 +457,9 @@ def _load(path: Path, design: FaceDesign, physics: Physics, key: str) -> Accepta
             simulated=np.asarray(data["simulated"], dtype=np.bool_),
             start_clearance=float(data["start_clearance"]),
         )
+        if "flip_keys" in data:  # files written before the flips were saved have none
+            atlas.flips.add_arrays(data["flip_keys"], data["flip_brackets"], atlas.outcomes.shape)
+        return atlas
 
 
 def _simulate(

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import threading
 from collections.abc import Callable, Hashable
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 from xface_core.atlas import AcceptanceAtlas, build_atlas
@@ -48,6 +49,10 @@ class AtlasKeeper:
         self._atlas: AcceptanceAtlas | None = None
         self._state = "off"
         self._threads: list[threading.Thread] = []
+        # Where the ready atlas is cached ("" = nowhere) and how many grid-line flips it
+        # held when it was last written or read there.
+        self._cache_dir = ""
+        self._flips_on_disk = 0
 
     @property
     def state(self) -> str:
@@ -101,4 +106,27 @@ class AtlasKeeper:
             if key != self._wanted:
                 return  # the design changed while this one was being built
             self._atlas, self._state = atlas, "ready"
+            self._cache_dir, self._flips_on_disk = config.atlas_cache_dir, len(atlas.flips)
         self._logger.info("acceptance atlas ready: margins from the atlas")
+
+    def persist(self) -> str | None:
+        """Write the ready atlas to its cache again if it found grid-line flips since it was
+        built or loaded (they make a restart's first margins near them cheap); a sentence
+        saying what happened, or None when there was nothing to write. Never raises: the
+        node calls it while shutting down."""
+        with self._lock:
+            atlas, cache_dir, on_disk = self._atlas, self._cache_dir, self._flips_on_disk
+        if atlas is None or not cache_dir:
+            return None
+        flips = len(atlas.flips)
+        if flips <= on_disk:
+            return None
+        path = Path(cache_dir).expanduser() / f"atlas-{atlas.key}.npz"
+        try:
+            atlas.save(path)
+        except (OSError, ValueError) as exc:
+            return f"atlas cache {cache_dir!r}: the {flips} grid-line flips not kept: {exc}"
+        with self._lock:
+            if self._atlas is atlas:
+                self._flips_on_disk = flips
+        return f"acceptance atlas saved with {flips} grid-line flips: {path}"

@@ -118,3 +118,54 @@ def test_atlas_binds_to_the_same_geometry_at_another_width(
 def test_atlas_arrays_are_read_only(coarse_v_atlas: xf.AcceptanceAtlas) -> None:
     with pytest.raises(ValueError, match="read-only"):
         coarse_v_atlas.outcomes[0, 0] = 0
+
+
+def test_saved_atlas_keeps_the_grid_line_flips_found_so_far(tmp_path: Path) -> None:
+    # A restart (build_atlas with the cache) knows the flips the last run bisected: its first
+    # margins near them take the interpolated confirmations at once.
+    design = xf.x_face(0.25, 1.0)
+    built = build_atlas(design, cache_dir=tmp_path, **SMALL)
+    outcome = xf.predict(design, 0.05, 0.1).outcome
+    for _ in range(2):  # the second query bisects the grid lines around it
+        xf.margins_from_atlas(built, 0.05, 0.1, outcome)
+    assert len(built.flips) > 0
+    built.save(tmp_path / f"atlas-{built.key}.npz")
+    loaded = build_atlas(design, cache_dir=tmp_path, **SMALL)
+    assert loaded.build_seconds == 0.0
+    assert loaded.flips.arrays()[0].tolist() == built.flips.arrays()[0].tolist()
+    assert np.array_equal(loaded.flips.arrays()[1], built.flips.arrays()[1])
+    assert xf.margins_from_atlas(loaded, 0.05, 0.1, outcome) == xf.margins_from_atlas(
+        built, 0.05, 0.1, outcome
+    )
+
+
+@pytest.mark.parametrize(
+    ("keys", "brackets"),
+    [
+        ([[2, 0, 0]], [[0.0, 0.1]]),  # no such axis
+        ([[0, 10_000, 0]], [[0.0, 0.1]]),  # off the grid
+        ([[0, 0, 0]], [[0.1, 0.0]]),  # an empty bracket
+        ([[0, 0, 0]], [[0.0, float("nan")]]),
+        ([[0.5, 0, 0]], [[0.0, 0.1]]),  # not an integer key
+        ([[0, 0]], [[0.0, 0.1]]),  # wrong shape
+    ],
+)
+def test_flips_that_do_not_fit_the_grid_are_refused(keys: list, brackets: list) -> None:
+    atlas = build_atlas(xf.v_face(0.5, 1.0), **SMALL)
+    with pytest.raises(ValueError, match="flip"):
+        atlas.flips.add_arrays(np.array(keys), np.array(brackets), atlas.outcomes.shape)
+    assert len(atlas.flips) == 0
+
+
+def test_a_cache_file_with_damaged_flips_is_rebuilt(tmp_path: Path) -> None:
+    design = xf.v_face(0.5, 1.0)
+    built = build_atlas(design, cache_dir=tmp_path, **SMALL)
+    path = tmp_path / f"atlas-{built.key}.npz"
+    with np.load(path) as data:
+        arrays = dict(data)
+    arrays["flip_keys"] = np.array([[0, -1, 0]])
+    arrays["flip_brackets"] = np.array([[0.0, 0.1]])
+    np.savez_compressed(path, **arrays)
+    again = build_atlas(design, cache_dir=tmp_path, **SMALL)
+    assert again.build_seconds > 0.0
+    assert np.array_equal(again.outcomes, built.outcomes)

@@ -37,6 +37,16 @@ def _coarse(design: xf.FaceDesign, physics: xf.Physics, cache_dir: str = "") -> 
     return xf.build_atlas(design, physics=physics, lateral_step=1 / 16, angle_step=0.05)
 
 
+def _ready(config: NodeConfig) -> tuple[AtlasKeeper, xf.AcceptanceAtlas]:
+    """A keeper (a node's, started afresh) and its atlas for ``config``, once ready."""
+    keeper = AtlasKeeper(Log())
+    keeper.get(config)
+    keeper.join(timeout_s=600.0)
+    atlas = keeper.get(config)
+    assert atlas is not None
+    return keeper, atlas
+
+
 def test_the_atlas_is_built_in_the_background_and_then_used(config: NodeConfig) -> None:
     keeper = AtlasKeeper(Log(), build=_coarse)
     assert keeper.state == "off"
@@ -111,18 +121,10 @@ def test_with_a_cache_dir_a_restart_loads_the_atlas_instead_of_building_it(
     config: NodeConfig, tmp_path: Any
 ) -> None:
     cached = replace(config, atlas_cache_dir=str(tmp_path / "atlases"))
-    first = AtlasKeeper(Log())
-    first.get(cached)
-    first.join(timeout_s=600.0)
-    built = first.get(cached)
-    assert built is not None
+    _, built = _ready(cached)
     assert built.build_seconds > 0.0
     assert [f.name for f in (tmp_path / "atlases").iterdir()] == [f"atlas-{built.key}.npz"]
-    again = AtlasKeeper(Log())  # the node restarted
-    again.get(cached)
-    again.join(timeout_s=600.0)
-    loaded = again.get(cached)
-    assert loaded is not None
+    _, loaded = _ready(cached)  # the node restarted
     assert loaded.build_seconds == 0.0  # read from the file
     assert (loaded.outcomes == built.outcomes).all()
 
@@ -212,3 +214,40 @@ def test_without_an_atlas_a_required_seat_probability_is_not_yet_met(config: Nod
 def test_a_covariance_that_is_not_one_is_rejected(config: NodeConfig, cov: Any) -> None:
     verdict = evaluate_streamed(_pose(config, 0.0, 0.0, cov), config, receive_ns=NOW_NS, path=False)
     assert verdict.code == "bad_covariance"  # type: ignore[union-attr]
+
+
+def test_flips_found_while_running_are_kept_for_the_next_start(
+    config: NodeConfig, tmp_path: Any
+) -> None:
+    cached = replace(config, atlas_cache_dir=str(tmp_path / "atlases"))
+    first, atlas = _ready(cached)
+    assert first.persist() is None  # nothing new to write
+    outcome = xf.predict(atlas.design, 0.05 * config.width_m, 0.1).outcome
+    for _ in range(2):  # the second query bisects the grid lines around it
+        xf.margins_from_atlas(atlas, 0.05 * config.width_m, 0.1, outcome)
+    found = len(atlas.flips)
+    assert found > 0
+    said = first.persist()
+    assert said is not None
+    assert f"{found} grid-line flips" in said
+    assert first.persist() is None  # written once
+    _, loaded = _ready(cached)  # the node restarted
+    assert loaded.build_seconds == 0.0
+    assert len(loaded.flips) == found
+
+
+def test_flips_that_cannot_be_written_are_reported_not_raised(
+    config: NodeConfig, tmp_path: Any
+) -> None:
+    cache = tmp_path / "atlases"
+    keeper, atlas = _ready(replace(config, atlas_cache_dir=str(cache)))
+    outcome = xf.predict(atlas.design, 0.05 * config.width_m, 0.1).outcome
+    for _ in range(2):
+        xf.margins_from_atlas(atlas, 0.05 * config.width_m, 0.1, outcome)
+    for f in cache.iterdir():
+        f.unlink()
+    cache.rmdir()
+    cache.write_text("a file where the directory was")
+    said = keeper.persist()
+    assert said is not None
+    assert "not kept" in said
