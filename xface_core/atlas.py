@@ -314,6 +314,12 @@ def atlas_key(
     return hashlib.sha256(repr(parts).encode()).hexdigest()[:24]
 
 
+def cache_path(cache_dir: str | Path, key: str) -> Path:
+    """The file of the atlas with ``key`` (:func:`atlas_key`) in ``cache_dir`` (``~``
+    expanded): where :func:`build_atlas` reads and writes it."""
+    return Path(cache_dir).expanduser() / f"atlas-{key}.npz"
+
+
 def _half_nodes(extent: float, step: float, stride: int) -> int:
     """Steps from the centre to the edge: covers ``extent`` and is a multiple of ``stride``."""
     return stride * math.ceil(extent / step / stride - 1e-9)
@@ -414,7 +420,7 @@ def build_atlas(
         angle_range=t_range,
         coarse_stride=coarse_stride,
     )
-    path = None if cache_dir is None else Path(cache_dir).expanduser() / f"atlas-{key}.npz"
+    path = None if cache_dir is None else cache_path(cache_dir, key)
     if path is not None and path.exists():
         try:
             return _load(path, design, phys, key)

@@ -12,10 +12,9 @@ from __future__ import annotations
 
 import threading
 from collections.abc import Callable, Hashable
-from pathlib import Path
 from typing import TYPE_CHECKING
 
-from xface_core.atlas import AcceptanceAtlas, build_atlas
+from xface_core.atlas import AcceptanceAtlas, build_atlas, cache_path
 from xface_core.geometry import FaceDesign
 from xface_core.physics import Physics
 from xface_ros.config import NodeConfig
@@ -109,11 +108,11 @@ class AtlasKeeper:
             self._cache_dir, self._flips_on_disk = config.atlas_cache_dir, len(atlas.flips)
         self._logger.info("acceptance atlas ready: margins from the atlas")
 
-    def persist(self) -> str | None:
+    def persist(self) -> tuple[str, bool] | None:
         """Write the ready atlas to its cache again if it found grid-line flips since it was
-        built or loaded (they make a restart's first margins near them cheap); a sentence
-        saying what happened, or None when there was nothing to write. Never raises: the
-        node calls it while shutting down."""
+        built or loaded (they make a restart's first margins near them cheap): a sentence
+        saying what happened and whether the write failed, or None when there was nothing to
+        write. Never raises: the node calls it while shutting down."""
         with self._lock:
             atlas, cache_dir, on_disk = self._atlas, self._cache_dir, self._flips_on_disk
         if atlas is None or not cache_dir:
@@ -121,12 +120,12 @@ class AtlasKeeper:
         flips = len(atlas.flips)
         if flips <= on_disk:
             return None
-        path = Path(cache_dir).expanduser() / f"atlas-{atlas.key}.npz"
+        path = cache_path(cache_dir, atlas.key)
         try:
             atlas.save(path)
         except (OSError, ValueError) as exc:
-            return f"atlas cache {cache_dir!r}: the {flips} grid-line flips not kept: {exc}"
+            return f"atlas cache {cache_dir!r}: the {flips} grid-line flips not kept: {exc}", True
         with self._lock:
             if self._atlas is atlas:
                 self._flips_on_disk = flips
-        return f"acceptance atlas saved with {flips} grid-line flips: {path}"
+        return f"acceptance atlas saved with {flips} grid-line flips: {path}", False

@@ -431,7 +431,8 @@ class _Predictor(Node):
             # The grid-line flips found while running go to the atlas cache (if any).
             saved = worker.atlas.persist() if worker.atlas is not None else None
             if saved is not None:
-                self._say_at_shutdown(saved, error="not kept" in saved)
+                text, failed = saved
+                self._say_at_shutdown(text, error=failed)
         recorder, self._recorder = self._recorder, None
         if recorder is None:
             return
