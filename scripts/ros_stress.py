@@ -15,6 +15,9 @@ from this process:
   simulation);
 * calls the ``predict`` service every 0.25 s during the stream (responsiveness);
 * samples the node's resident memory from /proc;
+* reads the CPU time the node's threads and its own used during the stream, by thread name
+  (/proc/<pid>/task: the node's worker is ``xface_predictor``, its executor ``python``,
+  Fast DDS's threads ``dds.*``);
 * reads the node's counters from ``/diagnostics`` after the stream has drained;
 * stops the node with SIGINT and records its exit code.
 
@@ -57,6 +60,29 @@ def rss_mib(pid: int) -> float:
         if line.startswith("VmRSS:"):
             return int(line.split()[1]) / 1024.0
     raise RuntimeError(f"no VmRSS for pid {pid}")
+
+
+def cpu_by_thread(pid: int) -> dict[str, float]:
+    """CPU time (user + system, s) a process has used, summed by its threads' names
+    (/proc/<pid>/task/*/stat: Fast DDS names its threads, Python's show the program's name)."""
+    tick = os.sysconf("SC_CLK_TCK")
+    used: dict[str, float] = {}
+    for task in Path(f"/proc/{pid}/task").iterdir():
+        try:
+            stat = (task / "stat").read_text()
+        except OSError:  # the thread ended between the listing and the read
+            continue
+        name = stat[stat.index("(") + 1 : stat.rindex(")")]
+        fields = stat[stat.rindex(")") + 2 :].split()
+        used[name] = used.get(name, 0.0) + (int(fields[11]) + int(fields[12])) / tick
+    return used
+
+
+def cpu_spent(before: dict[str, float], after: dict[str, float]) -> dict[str, float]:
+    """CPU seconds by thread name between two :func:`cpu_by_thread` readings, largest first."""
+    spent = {name: after[name] - before.get(name, 0.0) for name in after}
+    used = [(name, round(s, 3)) for name, s in spent.items() if s > 0]
+    return dict(sorted(used, key=lambda kv: -kv[1]))
 
 
 def percentile(values: list[float], q: float) -> float:
@@ -181,6 +207,7 @@ def run_stress(
             messages.append(msg)
 
         rss_start = rss_mib(node.pid)
+        cpu_node_start, cpu_client_start = cpu_by_thread(node.pid), cpu_by_thread(os.getpid())
         rss_samples = [rss_start]
         sent = 0
         stop = threading.Event()
@@ -226,6 +253,8 @@ def run_stress(
             stop.wait(0.25)
         publisher.join()
         stream_s = time.perf_counter() - stream_start
+        cpu_node = cpu_spent(cpu_node_start, cpu_by_thread(node.pid))
+        cpu_client = cpu_spent(cpu_client_start, cpu_by_thread(os.getpid()))
         # Drain: the worker finishes its last pose; then two diagnostics periods.
         time.sleep(3.0)
         rss_end = rss_mib(node.pid)
@@ -268,6 +297,8 @@ def run_stress(
             rss_mib_end=rss_end,
             rss_mib_peak=max([*rss_samples, rss_end]),
             node_alive_after_stream=node.poll() is None,
+            cpu_s_node=cpu_node,
+            cpu_s_client=cpu_client,
         )
     finally:
         if node.poll() is None:
@@ -324,6 +355,11 @@ def summary(r: dict[str, Any]) -> str:
             f"end, peak {r['rss_mib_peak']:.1f} MiB"
         ),
         f"outcomes: {r['outcomes']}",
+        (
+            f"CPU during the stream ({r['stream_s']:.1f} s; by thread name): node "
+            f"{sum(r['cpu_s_node'].values()):.2f} s {r['cpu_s_node']}; this client "
+            f"{sum(r['cpu_s_client'].values()):.2f} s {r['cpu_s_client']}"
+        ),
         (
             f"node alive after the stream: {r['node_alive_after_stream']}; "
             f"exit code on SIGINT: {r['node_exit_code']}"

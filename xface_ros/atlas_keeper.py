@@ -18,6 +18,7 @@ from xface_core.atlas import AcceptanceAtlas, build_atlas, cache_path
 from xface_core.geometry import FaceDesign
 from xface_core.physics import Physics
 from xface_ros.config import NodeConfig
+from xface_ros.threadname import name_os_thread
 
 if TYPE_CHECKING:
     from xface_ros.worker import Logger
@@ -93,6 +94,7 @@ class AtlasKeeper:
             thread.join(timeout=timeout_s)
 
     def _run(self, key: Hashable, config: NodeConfig) -> None:
+        name_os_thread(threading.current_thread().name)
         try:
             atlas = self._build(config.design, config.physics, config.atlas_cache_dir)
         except Exception as exc:  # margins fall back to the exact search: never fatal

@@ -35,7 +35,11 @@ from nav_msgs.msg import Path
 from nav_msgs.srv import GetPlan
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
-from rclpy.event_handler import QoSMessageLostInfo, SubscriptionEventCallbacks
+from rclpy.event_handler import (
+    PublisherEventCallbacks,
+    QoSMessageLostInfo,
+    SubscriptionEventCallbacks,
+)
 from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.lifecycle import LifecycleNodeMixin, LifecycleState, TransitionCallbackReturn
@@ -112,6 +116,12 @@ BULK_QOS = QoSProfile(
     durability=DurabilityPolicy.VOLATILE,
 )
 
+#: The outputs' publishers take no QoS-event handlers. rclpy's defaults log an incompatible
+#: QoS or message type offered to a subscriber, which that subscriber's own default handler
+#: logs too; and the executor adds every handler to its wait set again for every message it
+#: takes (docs/ros.md: the six outputs' 12 handlers cost it about a fifth of its CPU).
+OUTPUT_EVENT_CALLBACKS = PublisherEventCallbacks(use_default_callbacks=False)
+
 
 class _Predictor(Node):
     """The wiring both node kinds share: parameters, outputs, inputs and their callbacks.
@@ -150,7 +160,9 @@ class _Predictor(Node):
 
     def _publisher(self, msg_type: Any, topic: str, qos: QoSProfile) -> Any:
         """A publisher (the managed node makes lifecycle publishers)."""
-        publisher = self.create_publisher(msg_type, topic, qos)
+        publisher = self.create_publisher(
+            msg_type, topic, qos, event_callbacks=OUTPUT_EVENT_CALLBACKS
+        )
         self._publishers_made.append(publisher)
         return publisher
 
@@ -486,7 +498,9 @@ class XfaceLifecyclePredictor(LifecycleNodeMixin, _Predictor):
         LifecycleNodeMixin.__init__(self, enable_communication_interface=True)
 
     def _publisher(self, msg_type: Any, topic: str, qos: QoSProfile) -> Any:
-        publisher = self.create_lifecycle_publisher(msg_type, topic, qos)
+        publisher = self.create_lifecycle_publisher(
+            msg_type, topic, qos, event_callbacks=OUTPUT_EVENT_CALLBACKS
+        )
         self._publishers_made.append(publisher)
         return publisher
 

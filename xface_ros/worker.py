@@ -33,6 +33,7 @@ from xface_ros.decision import (
 )
 from xface_ros.latest import LatestSlot, Received
 from xface_ros.recorder import Recorder
+from xface_ros.threadname import name_os_thread
 
 __all__ = ["LOG_THROTTLE_S", "Logger", "PredictionWorker", "warm_up_simulator"]
 
@@ -174,6 +175,7 @@ class PredictionWorker:
     # --- the worker thread ------------------------------------------------------------------
 
     def _run(self) -> None:
+        name_os_thread(self._thread.name)
         self._warm_up()
         while not self._stop.is_set():
             item = self.slot.take(timeout_s=_POLL_S)

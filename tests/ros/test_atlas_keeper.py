@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 import threading
 from dataclasses import replace
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -56,6 +57,20 @@ def test_the_atlas_is_built_in_the_background_and_then_used(config: NodeConfig) 
     atlas = keeper.get(config)
     assert atlas is not None
     assert atlas.design.cache_key == config.design.cache_key
+
+
+def test_the_build_runs_on_a_thread_named_for_the_os(config: NodeConfig) -> None:
+    names: list[str] = []
+
+    def build(design: xf.FaceDesign, physics: xf.Physics, cache_dir: str) -> xf.AcceptanceAtlas:
+        comm = Path(f"/proc/self/task/{threading.get_native_id()}/comm")
+        names.append(comm.read_text().strip() if comm.exists() else "xface_atlas")
+        return _coarse(design, physics)
+
+    keeper = AtlasKeeper(Log(), build=build)
+    keeper.get(config)
+    keeper.join()
+    assert names == ["xface_atlas"]
 
 
 def test_a_design_change_starts_a_new_build_and_drops_the_old_atlas(config: NodeConfig) -> None:

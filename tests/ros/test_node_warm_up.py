@@ -35,9 +35,9 @@ WAIT_S = 60.0
 
 
 @pytest.fixture
-def release_warm_up(
+def held_node(
     ros_domain_id: int, monkeypatch: pytest.MonkeyPatch
-) -> Iterator[threading.Event]:
+) -> Iterator[tuple[threading.Event, XfacePredictor]]:
     """Run an XfacePredictor in this process whose warm-up waits for the returned event."""
     entered, release = threading.Event(), threading.Event()
 
@@ -58,13 +58,19 @@ def release_warm_up(
     try:
         assert entered.wait(timeout=WAIT_S)
         assert not release.is_set()
-        yield release
+        yield release, node
     finally:
         release.set()
         executor.shutdown(timeout_sec=5.0)
         spin.join(timeout=5.0)
         node.destroy_node()
         rclpy.try_shutdown(context=context)
+
+
+@pytest.fixture
+def release_warm_up(held_node: tuple[threading.Event, XfacePredictor]) -> threading.Event:
+    """The event that releases the in-process node's warm-up."""
+    return held_node[0]
 
 
 def predictor_message(array: DiagnosticArray) -> str | None:
@@ -91,3 +97,17 @@ def test_service_answers_and_diagnostics_say_warming_up_before_the_warm_up_ends(
     _sent, status = c.publish_until_status(lambda: c.pose_msg(0.0, Y_START, math.pi))
     assert status.message.startswith("SEATED")
     c.diagnostics.wait_for(lambda a: predictor_message(a) not in (None, WARMING_UP_MESSAGE), WAIT_S)
+
+
+def test_the_outputs_add_no_qos_event_handlers_to_the_executors_wait(
+    held_node: tuple[threading.Event, XfacePredictor],
+) -> None:
+    """The executor adds every QoS-event handler to its wait set for every message it takes
+    (docs/ros.md, "CPU per thread"): the six outputs have none, the pose inputs keep rclpy's
+    default warnings and the stream's message-lost count."""
+    node = held_node[1]
+    outputs = {p.topic_name: len(p.event_handlers) for p in node._publishers_made}
+    assert len(outputs) == 6
+    assert set(outputs.values()) == {0}
+    inputs = {s.topic_name: len(s.event_handlers) for s in node.subscriptions}
+    assert inputs["/relative_pose"] > inputs["/relative_pose_with_covariance"] > 0

@@ -58,3 +58,6 @@ def test_node_survives_a_1khz_stream_and_accounts_for_every_pose(
     assert r["statuses_received"] <= r["node_predicted"] + r["node_input_errors"]
     # The per-outcome split accounts for every status with a stamp.
     assert sum(v["statuses"] for v in r["by_outcome"].values()) == r["statuses_received"]
+    # The worker thread is named for the OS (xface_ros.threadname) and simulated the poses:
+    # its CPU is told apart from the executor's.
+    assert r["cpu_s_node"].get("xface_predictor", 0.0) > 0.0
