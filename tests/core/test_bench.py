@@ -13,8 +13,28 @@ from xface_core import bench
 def test_the_pymunk_line_has_both_map_times_and_their_ratio() -> None:
     pytest.importorskip("pymunk")
     (line,) = bench._pymunk_lines(True, 1)
-    assert line.startswith("| 41 x 41 map, X H/D 0.25 r_p 2: xface / pymunk scene")
-    assert re.search(r"\| \d+ ms / \d+ s: \d+x \| >= 1000x \|$", line)
+    assert line.startswith(
+        "| 41 x 41 map, X H/D 0.25 r_p 2: xface (symmetry skip on / off) / pymunk scene "
+        "(estimated from the diagonal), one thread each |"
+    )
+    assert re.search(r"\| \d+ / \d+ ms / \d+\.\d s: \d+x / \d+x \| >= 1000x \|$", line)
+
+
+@pytest.mark.parametrize("quick", [False, True])
+def test_the_pymunk_map_runs_every_cell_once_or_the_diagonal_when_quick(quick: bool) -> None:
+    from xface_core import x_face
+    from xface_core.grids import theta_grid, x0_grid
+
+    cells: list[tuple[float, float]] = []
+    bench._pymunk_map_seconds(
+        lambda _d, x0, theta0: cells.append((x0, theta0)), x_face(0.25, 2.0), quick
+    )
+    x0s, thetas = x0_grid(41).tolist(), theta_grid(41).tolist()
+    if quick:
+        assert cells == list(zip(x0s, thetas, strict=True))
+    else:
+        assert len(cells) == 41 * 41
+        assert set(cells) == {(x, t) for x in x0s for t in thetas}
 
 
 def test_without_the_extra_the_line_says_how_to_get_it(monkeypatch: pytest.MonkeyPatch) -> None:
