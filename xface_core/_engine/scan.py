@@ -61,16 +61,22 @@ Trig = tuple[float, float, float, float]
 
 
 @njit_no_refcount
-def _trig_after(seg: Segment, step: Step, t: float) -> Trig:
-    """cos and sin of phi_B and phi_M a descent ``t`` (D) into the step, on the integrated
-    path (for checking many pairs at one state)."""
-    pb, pm, _, _, _ = step_to(seg, step, t)
+def _trig(pb: float, pm: float) -> Trig:
+    """cos and sin of phi_B and phi_M (rad) at one state, for checking many pairs there."""
     return (math.cos(pb), math.sin(pb), math.cos(pm), math.sin(pm))
 
 
 @njit_no_refcount
+def _trig_after(seg: Segment, step: Step, t: float) -> Trig:
+    """cos and sin of phi_B and phi_M a descent ``t`` (D) into the step, on the integrated
+    path (for checking many pairs at one state)."""
+    pb, pm, _, _, _ = step_to(seg, step, t)
+    return _trig(pb, pm)
+
+
+@njit_no_refcount
 def _active_events(
-    opts: Options, seg: Segment, step: Step, nb: float, nm: float, best: Event
+    opts: Options, seg: Segment, step: Step, nb: float, nm: float, end: Trig, best: Event
 ) -> Event:
     """An active contact lets go (its force changes sign), the path turns back (the force
     changes sign through a pole), or its vertex leaves the edge."""
@@ -97,7 +103,7 @@ def _active_events(
                 kind = E_TURN
                 hk = lo
             best = earlier(Event(kind, pair, hk), best)
-        _, u, _, _, _, _, _, _, _ = pair_at(seg.pairs, pair, nb, nm, seg.x0, y1)
+        _, u, _, _, _, _, _, _, _ = eval_pair(seg.pairs[pair], *end, seg.x0, y1)
         if u < -U_TOL or u > 1.0 + U_TOL:
             _, hk = locate(seg, step, tol, E_OFF_EDGE, pair, k, 0.0)
             best = earlier(Event(E_OFF_EDGE, pair, hk), best)
@@ -134,8 +140,9 @@ def _slip_events(
 
 @njit_no_refcount
 def _contact_events(
-    opts: Options, seg: Segment, step: Step, work: Work, nb: float, nm: float, best: Event
-) -> tuple[Event, bool]:
+    opts: Options, seg: Segment, step: Step, work: Work, nb: float, nm: float, start: Trig,
+    end: Trig, best: Event,
+) -> tuple[Event, bool]:  # fmt: skip
     """New contacts: an inactive pair's gap crosses its threshold inside the edge's span.
     Also fills every pair's gap and edge parameter at the step's end (``work.g_next``), and
     says whether two corners cross there that did not at the start (:func:`_crossing`)."""
@@ -145,17 +152,12 @@ def _contact_events(
     g_next, u_next, rays = work.g_next, work.u_next, work.rays
     pairs, act, n_act, x0 = seg.pairs, seg.act, seg.n_active, seg.x0
     tol = opts.event_tol
-    cb1, sb1, cm1, sm1 = math.cos(nb), math.sin(nb), math.cos(nm), math.sin(nm)
+    cb1, sb1, cm1, sm1 = end
     # The states at the earliest event so far and two event widths before it, computed once
     # per candidate event and shared by every pair checked against it.
     at_h, at = -1.0, (1.0, 0.0, 1.0, 0.0)  # cos and sin of the angles there
     early_h, early = -1.0, at
-    cb0, sb0, cm0, sm0 = (
-        math.cos(step.phi_b),
-        math.sin(step.phi_b),
-        math.cos(step.phi_m),
-        math.sin(step.phi_m),
-    )
+    cb0, sb0, cm0, sm0 = start
     crossed = False
     rates = (-1.0, -1.0)  # _turn_rates, once a pair needs them
     sleep = work.sleep
@@ -378,15 +380,16 @@ def _far_outside(
 
 
 @njit_no_refcount
-def _contacts_before(opts: Options, seg: Segment, step: Step, work: Work, best: Event) -> Event:
+def _contacts_before(
+    opts: Options, seg: Segment, step: Step, work: Work, start: Trig, best: Event
+) -> Event:
     """A contact that came before the event found, though the trial step's end did not show
     it: a vertex that went in past a corner and out again within the step. At the event's
     state no pair that started outside may be inside; one that is gets located before it.
     """
     thr, g_prev = work.thr, work.g_prev
     pairs, act, n_act, x0 = seg.pairs, seg.act, seg.n_active, seg.x0
-    cb0, sb0 = math.cos(step.phi_b), math.sin(step.phi_b)
-    cm0, sm0 = math.cos(step.phi_m), math.sin(step.phi_m)
+    cb0, sb0, cm0, sm0 = start
     for _ in range(4):
         if best.kind == E_NONE or best.h <= 0.0:
             return best
@@ -509,6 +512,8 @@ def _contacts_inside_step(
     work: Work,
     nb: float,
     nm: float,
+    start: Trig,
+    end: Trig,
     best: Event,
     n_samples: int,
 ) -> Event:
@@ -530,14 +535,9 @@ def _contacts_inside_step(
     )
     pairs, act, n_act, x0 = seg.pairs, seg.act, seg.n_active, seg.x0
     turn = abs(nb - step.phi_b) + abs(nm - step.phi_m)
-    cb0, sb0, cm0, sm0 = (
-        math.cos(step.phi_b),
-        math.sin(step.phi_b),
-        math.cos(step.phi_m),
-        math.sin(step.phi_m),
-    )
+    cb0, sb0, cm0, sm0 = start
     y1 = step.y_m - step.h
-    cb1, sb1, cm1, sm1 = math.cos(nb), math.sin(nb), math.cos(nm), math.sin(nm)
+    cb1, sb1, cm1, sm1 = end
     sampled = False
     rates = (-1.0, -1.0)  # _turn_rates, once a pair needs them
     for i in range(pairs.shape[0]):
@@ -635,15 +635,14 @@ def _crossing(
 
 @njit_no_refcount
 def _crossed_at_event(opts: Options, seg: Segment, step: Step, work: Work, nb: float,
-                      nm: float, best: Event) -> bool:  # fmt: skip
+                      nm: float, start: Trig, best: Event) -> bool:  # fmt: skip
     """:func:`_crossing` at the state of the earliest event found (the step's end has it
     from :func:`_contact_events`)."""
     eb, em, _, _, _ = step_to(seg, step, best.h)
     ey = step.y_m - best.h
     pairs, x0, u_prev, u_next, rays = seg.pairs, seg.x0, work.u_prev, work.u_next, work.rays
     now = (math.cos(eb), math.sin(eb), math.cos(em), math.sin(em), ey)
-    cb0, sb0 = math.cos(step.phi_b), math.sin(step.phi_b)
-    start = (cb0, sb0, math.cos(step.phi_m), math.sin(step.phi_m), step.y_m)
+    at_start = (start[0], start[1], start[2], start[3], step.y_m)
     turn = abs(nb - step.phi_b) + abs(nm - step.phi_m)
     for i in range(pairs.shape[0]):
         if asleep(work, i):
@@ -656,7 +655,7 @@ def _crossed_at_event(opts: Options, seg: Segment, step: Step, work: Work, nb: f
         if min(abs(u_prev[i]), abs(u_next[i])) - 0.5 > travel / row[COL_EDGE_LENGTH]:
             continue
         g, u, _, _, _, _, _, _, _ = eval_pair(row, now[0], now[1], now[2], now[3], x0, ey)
-        if _crossing(opts, rays, row, g, u, now, start, x0):
+        if _crossing(opts, rays, row, g, u, now, at_start, x0):
             return True
     return False
 
@@ -664,18 +663,21 @@ def _crossed_at_event(opts: Options, seg: Segment, step: Step, work: Work, nb: f
 @njit_no_refcount
 def find_event(opts: Options, seg: Segment, step: Step, work: Work, nb: float, nm: float) -> Event:
     """The earliest event in the trial step that ends at ``(nb, nm)``, or ``NO_EVENT``."""
-    best = _active_events(opts, seg, step, nb, nm, NO_EVENT)
+    # The trigonometry of the step's two ends, once for every source (each computed it
+    # again; libm's sincos is about a sixth of the kernel's time, docs/bench.md).
+    start, end = _trig(step.phi_b, step.phi_m), _trig(nb, nm)
+    best = _active_events(opts, seg, step, nb, nm, end, NO_EVENT)
     if opts.friction > 0.0:
         best = _slip_events(opts, seg, step, nb, nm, best)
-    best, crossed = _contact_events(opts, seg, step, work, nb, nm, best)
-    best = _contacts_inside_step(opts, seg, step, work, nb, nm, best, COARSE_SAMPLES)
-    best = _contacts_before(opts, seg, step, work, best)
+    best, crossed = _contact_events(opts, seg, step, work, nb, nm, start, end, best)
+    best = _contacts_inside_step(opts, seg, step, work, nb, nm, start, end, best, COARSE_SAMPLES)
+    best = _contacts_before(opts, seg, step, work, start, best)
     if best.kind != E_NONE:
-        crossed = _crossed_at_event(opts, seg, step, work, nb, nm, best)
+        crossed = _crossed_at_event(opts, seg, step, work, nb, nm, start, best)
     if crossed:
         # Two corners cross like an X where the step ends: a vertex went in and out again
         # in a sliver of the step that the coarse samples missed.
-        best = _contacts_inside_step(opts, seg, step, work, nb, nm, best, FINE_SAMPLES)
+        best = _contacts_inside_step(opts, seg, step, work, nb, nm, start, end, best, FINE_SAMPLES)
     y1 = step.y_m - step.h
     if y1 < seg.y_floor:
         # y_M falls linearly with the descent: the crossing is known exactly.
