@@ -29,6 +29,24 @@ def test_an_unwritable_picture_or_recording_is_an_error(
     _error(capsys, ["map", "--grid", "5", option, "/nonexistent/dir/out.x"], "/nonexistent")
 
 
+@pytest.mark.parametrize("command", ["predict --x0 0.1 --theta0 0.1", "map --grid 5"])
+def test_an_unwritable_recording_prints_one_line_and_nothing_from_rerun(
+    tmp_path: Path, command: str
+) -> None:
+    """Run as a program: rerun's own warnings go to the process's stderr, past capsys."""
+    proc = subprocess.run(
+        [sys.executable, "-m", "xface_core.cli", *command.split(), "--rrd", str(tmp_path)],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        check=False,
+    )
+    assert proc.returncode == 2
+    err = proc.stderr.strip().splitlines()
+    assert len(err) == 1, err
+    assert err[0].startswith("xface: error: cannot write the recording ")
+
+
 def test_an_absurd_grid_is_refused_with_an_estimate(capsys: pytest.CaptureFixture[str]) -> None:
     _error(capsys, ["map", "--grid", "100001"], "GiB of arrays; the largest grid is 1001")
 

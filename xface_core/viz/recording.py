@@ -268,6 +268,16 @@ def new_recording(
     >>> rec.get_recording_id()
     'doc-example'
     """
+    if path is not None:
+        # Before the stream exists: a stream whose file sink failed keeps what it buffered
+        # in memory, and rerun warns about dropping it at exit, after our one-line error.
+        try:
+            with open(path, "ab"):  # creates the file, keeps an existing one for rerun
+                pass
+        except OSError as exc:
+            raise XfaceValueError(
+                f"cannot write the recording {str(path)!r}: {exc.strerror}"
+            ) from exc
     rec = rr.RecordingStream(
         application_id,
         recording_id=recording_id if recording_id is not None else uuid.uuid4(),
