@@ -8,9 +8,11 @@ of this run's own unless the caller chose one. Tests that start rclpy take the
 
 from __future__ import annotations
 
+import fcntl
 import importlib.util
 import itertools
 import os
+import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -84,38 +86,76 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
 class DomainIdAllocator:
     """Hands out ROS domain ids from ``ids`` in turn, starting at an offset of this run's.
 
-    Consecutive tests get distinct ids; the start depends on the process id so that two runs
-    on one machine rarely walk the same sequence at the same time.
+    Consecutive tests get distinct ids; the start depends on the process id. With a
+    ``lock_dir``, an id is also locked (``flock`` on a file there) from :meth:`allocate`
+    until :meth:`release`, and an id that another test session on this machine holds, or
+    that this one still holds (a module's shared node), is passed over: two sessions at once
+    (a CI run beside a developer's) once walked the same ids, and one's client saw the
+    other's node.
 
     >>> allocator = DomainIdAllocator(range(100, 103), start=1)
     >>> [allocator.allocate() for _ in range(4)]
     [101, 102, 100, 101]
     """
 
-    def __init__(self, ids: range, *, start: int) -> None:
+    def __init__(self, ids: range, *, start: int, lock_dir: Path | None = None) -> None:
         if len(ids) == 0:
             raise ValueError("ids must not be empty")
+        self._n = len(ids)
         self._ids: Iterator[int] = itertools.islice(itertools.cycle(ids), start % len(ids), None)
+        self._lock_dir = lock_dir
+        self._held: dict[int, int] = {}  # domain id -> the open lock file's descriptor
 
     def allocate(self) -> int:
-        """The next domain id."""
-        return next(self._ids)
+        """The next domain id (with a ``lock_dir``: the next one nobody holds, now locked)."""
+        for _ in range(self._n):
+            domain_id = next(self._ids)
+            if self._lock_dir is None:
+                return domain_id
+            if domain_id not in self._held and self._lock(domain_id):
+                return domain_id
+        raise RuntimeError(f"all {self._n} test ROS domain ids are held by running test sessions")
+
+    def release(self, domain_id: int) -> None:
+        """Unlock ``domain_id`` (nothing happens for an id this allocator does not hold)."""
+        fd = self._held.pop(domain_id, None)
+        if fd is not None:
+            os.close(fd)  # closing the descriptor drops its flock
+
+    def _lock(self, domain_id: int) -> bool:
+        assert self._lock_dir is not None
+        path = self._lock_dir / f"xface-test-ros-domain-{domain_id}.lock"
+        fd = os.open(path, os.O_CREAT | os.O_RDWR, 0o666)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:  # another session holds it
+            os.close(fd)
+            return False
+        self._held[domain_id] = fd
+        return True
 
 
 @pytest.fixture(scope="session")
 def ros_domain_allocator() -> DomainIdAllocator:
-    """The allocator behind :func:`ros_domain_id`, one per test session."""
-    return DomainIdAllocator(TEST_DOMAIN_IDS, start=os.getpid())
+    """The allocator behind :func:`ros_domain_id`, one per test session, its locks in the
+    machine's temporary folder."""
+    return DomainIdAllocator(
+        TEST_DOMAIN_IDS, start=os.getpid(), lock_dir=Path(tempfile.gettempdir())
+    )
 
 
 @pytest.fixture
-def ros_domain_id(ros_domain_allocator: DomainIdAllocator, monkeypatch: pytest.MonkeyPatch) -> int:
+def ros_domain_id(
+    ros_domain_allocator: DomainIdAllocator, monkeypatch: pytest.MonkeyPatch
+) -> Iterator[int]:
     """A ROS domain id (100..199) for this test alone, also set as ``ROS_DOMAIN_ID``.
 
     Pass it to ``rclpy.init(domain_id=...)`` or rely on the environment variable, which
-    subprocesses started by the test inherit; the variable is restored after the test.
+    subprocesses started by the test inherit; the variable is restored after the test, and
+    the id released after the fixtures that use it (the nodes they started) are torn down.
     """
     domain_id = ros_domain_allocator.allocate()
     monkeypatch.setenv("ROS_DOMAIN_ID", str(domain_id))
     monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
-    return domain_id
+    yield domain_id
+    ros_domain_allocator.release(domain_id)

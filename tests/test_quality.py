@@ -159,5 +159,24 @@ def test_ros_domain_id_fixture_stays_in_the_test_range(ros_domain_id: int) -> No
 
 
 def test_consecutive_tests_get_distinct_domain_ids(ros_domain_allocator: Any) -> None:
-    ids = [ros_domain_allocator.allocate() for _ in range(100)]
-    assert len(set(ids)) == 100
+    ids = [ros_domain_allocator.allocate() for _ in range(50)]
+    for domain_id in ids:
+        ros_domain_allocator.release(domain_id)
+    assert len(set(ids)) == 50
+
+
+def test_a_domain_id_held_by_another_session_is_passed_over(
+    ros_domain_allocator: Any, tmp_path: Path
+) -> None:
+    allocator = type(ros_domain_allocator)  # tests/conftest.py's DomainIdAllocator
+    other = allocator(range(100, 104), start=0, lock_dir=tmp_path)
+    this = allocator(range(100, 104), start=0, lock_dir=tmp_path)
+    assert other.allocate() == 100
+    assert [this.allocate(), this.allocate()] == [101, 102]  # 100 is the other's
+    this.release(101)
+    other.release(100)
+    assert [this.allocate(), this.allocate()] == [103, 100]  # 102 is still this one's
+    third = allocator(range(100, 104), start=0, lock_dir=tmp_path)
+    assert third.allocate() == 101
+    with pytest.raises(RuntimeError, match="held by running test sessions"):
+        allocator(range(100, 104), start=0, lock_dir=tmp_path).allocate()

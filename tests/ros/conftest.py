@@ -468,4 +468,5 @@ def shared_node(
         if client is not None:
             client.close()
         code = node.stop(signal.SIGINT)
+        ros_domain_allocator.release(domain_id)
         assert code == 0, node.log()
