@@ -158,11 +158,17 @@ def test_ros_domain_id_fixture_stays_in_the_test_range(ros_domain_id: int) -> No
     assert 100 <= ros_domain_id <= 199
 
 
-def test_consecutive_tests_get_distinct_domain_ids(ros_domain_allocator: Any) -> None:
-    ids = [ros_domain_allocator.allocate() for _ in range(50)]
-    for domain_id in ids:
-        ros_domain_allocator.release(domain_id)
-    assert len(set(ids)) == 50
+@pytest.mark.parametrize("locked", [False, True])
+def test_consecutive_tests_get_distinct_domain_ids(
+    ros_domain_allocator: Any, tmp_path: Path, locked: bool
+) -> None:
+    # The session's allocator class over the whole test range, its locks (if any) private to
+    # this test, so that another session's held ids cannot shorten the cycle checked here.
+    allocator = type(ros_domain_allocator)(
+        range(100, 200), start=os.getpid(), lock_dir=tmp_path if locked else None
+    )
+    ids = [allocator.allocate() for _ in range(100)]
+    assert len(set(ids)) == 100
 
 
 def test_a_domain_id_held_by_another_session_is_passed_over(
