@@ -217,16 +217,21 @@ class PredictionWorker:
         return verdict
 
     def _deliver(self, verdict: Verdict, config: NodeConfig) -> None:
-        self._publish(verdict, config)
-        latency_ms = (self._now_ns() - verdict.stamp_ns) * 1e-6
-        self.stats.count_verdict(verdict, latency_ms=latency_ms)
+        try:
+            self._publish(verdict, config)
+            published_ns = self._now_ns()
+        finally:
+            # Recorded even when publishing fails part-way: a signal can take the context down
+            # between the status and the next output, and a client may already hold that status
+            # (the recording is finished after this worker stops, so nothing decided is lost).
+            if not isinstance(verdict, Rejected) and self._recorder is not None:
+                self._record(self._recorder, verdict.prediction, verdict.stamp_ns, verdict.accepted)
+        self.stats.count_verdict(verdict, latency_ms=(published_ns - verdict.stamp_ns) * 1e-6)
         if isinstance(verdict, Rejected):
             self._logger.error(
                 f"pose rejected: {verdict.code}: {verdict.detail}",
                 throttle_duration_sec=LOG_THROTTLE_S,
             )
-        elif self._recorder is not None:
-            self._record(self._recorder, verdict.prediction, verdict.stamp_ns, verdict.accepted)
 
     def _record(
         self, recorder: Recorder, prediction: Prediction, stamp_ns: int, accepted: bool

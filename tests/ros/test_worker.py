@@ -267,6 +267,17 @@ def test_predictions_are_recorded_and_recording_failures_counted(config: NodeCon
     assert logger.lines["error"] == ["recording failed: OSError('disk full')"]
 
 
+def test_a_prediction_is_recorded_even_when_its_publishing_fails(config: NodeConfig) -> None:
+    # At shutdown the context can go down between the status and the seated pose's publish;
+    # the status may already be out, so the recording must still hold the prediction.
+    recorder = FakeRecorder()
+    worker = make_worker(config, Published(fail_first=1), recorder=recorder)
+    with pytest.raises(RuntimeError, match="publisher broke"):
+        worker.process(Received(at_start(0.3, 0.2), receive_ns=NOW_NS))
+    assert [stamp for _, stamp, _ in recorder.recorded] == [NOW_NS]
+    assert recorder.recorded[0][0].seated
+
+
 def test_stop_is_idempotent(config: NodeConfig) -> None:
     worker = make_worker(config, Published())
     worker.start()
