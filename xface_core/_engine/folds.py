@@ -8,36 +8,50 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-from numba import njit
-
 from .pairs import eval_pair, pair_at
 from .records import CUT_DEPTH, FOLD_REACH, U_CORNER, FloatArray, IntArray, njit_no_refcount
 
 
 @njit_no_refcount
-def det3(m: FloatArray) -> float:
+def _det3(
+    m00: float, m01: float, m02: float, m10: float, m11: float, m12: float, m20: float,
+    m21: float, m22: float,
+) -> float:  # fmt: skip
+    """Determinant of the 3 x 3 matrix with these entries (row by row)."""
     return float(
-        m[0, 0] * (m[1, 1] * m[2, 2] - m[1, 2] * m[2, 1])
-        - m[0, 1] * (m[1, 0] * m[2, 2] - m[1, 2] * m[2, 0])
-        + m[0, 2] * (m[1, 0] * m[2, 1] - m[1, 1] * m[2, 0])
+        m00 * (m11 * m22 - m12 * m21)
+        - m01 * (m10 * m22 - m12 * m20)
+        + m02 * (m10 * m21 - m11 * m20)
     )
 
 
-@njit(cache=True, nogil=True)
-def solve3(m: FloatArray, b0: float, b1: float, b2: float) -> tuple[bool, float, float, float]:
-    """Cramer's rule for a 3 x 3 system (numba's np.linalg would need scipy's LAPACK)."""
-    det = det3(m)
+@njit_no_refcount
+def det3(m: FloatArray) -> float:
+    return _det3(m[0, 0], m[0, 1], m[0, 2], m[1, 0], m[1, 1], m[1, 2], m[2, 0], m[2, 1], m[2, 2])
+
+
+@njit_no_refcount
+def _solve3(
+    m00: float, m01: float, m02: float, m10: float, m11: float, m12: float, m20: float,
+    m21: float, m22: float, b0: float, b1: float, b2: float,
+) -> tuple[bool, float, float, float]:  # fmt: skip
+    """Cramer's rule for the 3 x 3 system with these entries (row by row) and right side."""
+    det = _det3(m00, m01, m02, m10, m11, m12, m20, m21, m22)
     if not abs(det) > 1e-300:
         return False, 0.0, 0.0, 0.0
-    out = np.empty(3)
-    for j in range(3):
-        c = m.copy()
-        c[0, j] = b0
-        c[1, j] = b1
-        c[2, j] = b2
-        out[j] = det3(c) / det
-    return True, out[0], out[1], out[2]
+    x0 = _det3(b0, m01, m02, b1, m11, m12, b2, m21, m22) / det
+    x1 = _det3(m00, b0, m02, m10, b1, m12, m20, b2, m22) / det
+    x2 = _det3(m00, m01, b0, m10, m11, b1, m20, m21, b2) / det
+    return True, x0, x1, x2
+
+
+@njit_no_refcount
+def solve3(m: FloatArray, b0: float, b1: float, b2: float) -> tuple[bool, float, float, float]:
+    """Cramer's rule for a 3 x 3 system (numba's np.linalg would need scipy's LAPACK)."""
+    return _solve3(
+        m[0, 0], m[0, 1], m[0, 2], m[1, 0], m[1, 1], m[1, 2], m[2, 0], m[2, 1], m[2, 2],
+        b0, b1, b2,
+    )  # fmt: skip
 
 
 @njit_no_refcount
@@ -49,7 +63,11 @@ def fold_residual(
     return g1, g2, ab1 * am2 - am1 * ab2
 
 
-@njit(cache=True, nogil=True)
+#: Finite-difference step of the fold's Jacobian (rad, rad, D).
+_FD_STEP = 1e-7
+
+
+@njit_no_refcount
 def solve_fold(
     table: FloatArray, act: IntArray, pb: float, pm: float, x0: float, ym: float
 ) -> tuple[float, float, float, bool]:
@@ -58,32 +76,36 @@ def solve_fold(
 
     Integration can only approach a fold like sqrt(distance), so the end state is solved for
     directly (Newton, finite-difference Jacobian); returns (pb, pm, ym, converged), where
-    converged also requires the fold within FOLD_REACH (D) of the start height.
+    converged also requires the fold within FOLD_REACH (D) of the start height. In scalars:
+    the engine allocates nothing below its batch entries.
     """
-    x = np.array([pb, pm, ym])
-    jac = np.empty((3, 3))
+    xb, xm, xy = pb, pm, ym
     for _ in range(30):
-        f0 = np.array(fold_residual(table, act, x[0], x[1], x0, x[2]))
-        if abs(f0[0]) < 1e-14 and abs(f0[1]) < 1e-14 and abs(f0[2]) < 1e-12:
+        f0, f1, f2 = fold_residual(table, act, xb, xm, x0, xy)
+        if abs(f0) < 1e-14 and abs(f1) < 1e-14 and abs(f2) < 1e-12:
             # Converged, but a fold further than FOLD_REACH from the start is not this one.
-            return x[0], x[1], x[2], abs(x[2] - ym) < FOLD_REACH
-        for j in range(3):
-            step = 1e-7
-            xp = x.copy()
-            xp[j] += step
-            fp = np.array(fold_residual(table, act, xp[0], xp[1], x0, xp[2]))
-            jac[:, j] = (fp - f0) / step
-        ok, dx0, dx1, dx2 = solve3(jac, -f0[0], -f0[1], -f0[2])
+            return xb, xm, xy, abs(xy - ym) < FOLD_REACH
+        h = _FD_STEP
+        p0, p1, p2 = fold_residual(table, act, xb + h, xm, x0, xy)
+        q0, q1, q2 = fold_residual(table, act, xb, xm + h, x0, xy)
+        r0, r1, r2 = fold_residual(table, act, xb, xm, x0, xy + h)
+        ok, dx0, dx1, dx2 = _solve3(
+            (p0 - f0) / h, (q0 - f0) / h, (r0 - f0) / h,
+            (p1 - f1) / h, (q1 - f1) / h, (r1 - f1) / h,
+            (p2 - f2) / h, (q2 - f2) / h, (r2 - f2) / h,
+            -f0, -f1, -f2,
+        )  # fmt: skip
         if not ok:
             break
-        x[0] += dx0
-        x[1] += dx1
-        x[2] += dx2
-        if not (np.all(np.isfinite(x)) and abs(x[0] - pb) < 0.1 and abs(x[1] - pm) < 0.1):
+        xb += dx0
+        xm += dx1
+        xy += dx2
+        finite = math.isfinite(xb) and math.isfinite(xm) and math.isfinite(xy)
+        if not (finite and abs(xb - pb) < 0.1 and abs(xm - pm) < 0.1):
             break
-    f0 = np.array(fold_residual(table, act, x[0], x[1], x0, x[2]))
-    ok = abs(f0[0]) < 1e-10 and abs(f0[1]) < 1e-10 and abs(x[2] - ym) < FOLD_REACH
-    return x[0], x[1], x[2], ok
+    f0, f1, _ = fold_residual(table, act, xb, xm, x0, xy)
+    ok = abs(f0) < 1e-10 and abs(f1) < 1e-10 and abs(xy - ym) < FOLD_REACH
+    return xb, xm, xy, ok
 
 
 @njit_no_refcount

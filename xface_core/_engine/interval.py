@@ -5,8 +5,6 @@ from __future__ import annotations
 
 import math
 
-from numba import njit
-
 from .ends import Run, end_at_rest, end_run, is_seated, record
 from .motion import choose_motion, friction_modes, rate_keeps_contacts, velocity
 from .overlap import overlapping
@@ -49,7 +47,7 @@ BLOCKED = 1
 START_LIFT = 4.0
 
 
-@njit(cache=True, nogil=True)  # allocates below: needs NRT
+@njit_no_refcount
 def start_run(
     model: Model,
     opts: Options,
@@ -88,8 +86,9 @@ def start_run(
     elif abs(x0) > L:
         end_run(run, path, path_pairs, work.act, O_OUT_OF_REACH, R_OUT_OF_REACH, False)
     elif overlapping(
-        model.base_edges, model.moving_edges, 0.0, theta0, x0, y_start + START_LIFT * opts.touch_tol
-    ):
+        model.base_edges, model.moving_edges, 0.0, theta0, x0,
+        y_start + START_LIFT * opts.touch_tol, work.world_b, work.world_m,
+    ):  # fmt: skip
         # Overlapping even when lifted by a few touching tolerances: a real interpenetration,
         # not a start exactly at contact (whose rounding may put a vertex 1e-16 D inside).
         end_run(run, path, path_pairs, work.act, O_INVALID, R_OVERLAP, False)
@@ -203,7 +202,7 @@ def _one_consistent(
     return keeps, fb, fm
 
 
-@njit(cache=True, nogil=True)  # choose_motion allocates: needs NRT
+@njit_no_refcount
 def _choose(model: Model, opts: Options, run: Run, work: Work) -> tuple[int, int, bool]:
     """The touching pairs, the least-dissipation motion and, with friction, the consistent
     active set: ``(status, n_active, consistent)`` (work.act, work.slip set)."""
@@ -214,8 +213,9 @@ def _choose(model: Model, opts: Options, run: Run, work: Work) -> tuple[int, int
     )  # fmt: skip
     sqb, sqm = opts.sqrt_winv_b, opts.sqrt_winv_m
     status, n_new, v0b, v0m = choose_motion(
-        model.pairs, work.ev, work.cand, nc, pb, pm, x0, ym, sqb, sqm, work.act
-    )
+        model.pairs, work.ev, work.cand, nc, pb, pm, x0, ym, sqb, sqm, work.act, work.choice,
+        work.trial, work.rays,
+    )  # fmt: skip
     consistent = True
     if status == MOVES and n_new > 0 and opts.friction > 0.0:
         consistent, n_new, _, _ = _with_friction(model, opts, run, work, nc, n_new, v0b, v0m)
@@ -238,7 +238,7 @@ def _keeps_excluded(model: Model, opts: Options, run: Run, work: Work, n_new: in
     )  # fmt: skip
 
 
-@njit(cache=True, nogil=True)  # allocates below: needs NRT
+@njit_no_refcount
 def begin_interval(
     model: Model, opts: Options, run: Run, work: Work, path: FloatArray, path_pairs: IntArray
 ) -> None:

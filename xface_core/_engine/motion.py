@@ -11,9 +11,6 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-from numba import njit
-
 from .pairs import corner_distance, corner_motion_admissible, eval_pair, pair_at
 from .records import (
     CORNER_REACH,
@@ -337,7 +334,7 @@ def rate_keeps_contacts(
     return True
 
 
-@njit(cache=True, nogil=True)
+@njit_no_refcount
 def choose_motion(
     table: FloatArray,
     ev: FloatArray,
@@ -350,6 +347,9 @@ def choose_motion(
     sqb: float,
     sqm: float,
     act: IntArray,
+    scratch: IntArray,
+    trial: IntArray,
+    rays: FloatArray,
 ) -> tuple[int, int, float, float]:
     """Least-dissipation rate with corner contacts treated as alternatives.
 
@@ -357,9 +357,12 @@ def choose_motion(
     edge's end (two corners meeting) is only one of several ways to stay apart: the
     admissible motions form a union, so each alternative is tried on top of the hard
     constraints and the admissible one of least dissipation wins.
+
+    ``scratch`` (3, >= nc + 2), ``trial`` (4,) and ``rays`` (4, 2) are working space
+    (:class:`~.records.Work`'s ``choice``, ``trial`` and ``rays``): nothing is allocated.
     """
-    hard = np.empty(nc + 2, dtype=np.int64)
-    corner = np.empty(nc, dtype=np.int64)
+    hard = scratch[0]
+    corner = scratch[1]
     nh = 0
     n_corner = 0
     for k in range(nc):
@@ -373,7 +376,7 @@ def choose_motion(
             corner[n_corner] = i
             n_corner += 1
     n_alt = 0
-    alt = np.empty(n_corner, dtype=np.int64)
+    alt = scratch[2]
     for k in range(n_corner):
         u = ev[corner[k], 1]
         if -U_TOL <= u <= 1.0 + U_TOL:
@@ -382,8 +385,7 @@ def choose_motion(
     status, nact, vb, vm = solve_qp(ev, hard, nh, sqb, sqm, 1e-9, act)
     if n_corner == 0:
         return status, nact, vb, vm
-    trial = np.full(4, -1, dtype=np.int64)
-    rays = np.empty((4, 2))
+    trial[:] = -1
     best = math.inf
     best_n = 0
     best_vb = 0.0

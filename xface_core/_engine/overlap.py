@@ -4,13 +4,10 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-from numba import njit
-
-from .records import FloatArray
+from .records import FloatArray, njit_no_refcount
 
 
-@njit(cache=True, nogil=True)
+@njit_no_refcount
 def segments_cross(
     ax: float, ay: float, bx: float, by: float, cx: float, cy: float, dx: float, dy: float
 ) -> bool:
@@ -21,7 +18,7 @@ def segments_cross(
     return d1 * d2 < 0.0 and d3 * d4 < 0.0
 
 
-@njit(cache=True, nogil=True)
+@njit_no_refcount
 def inside(px: float, py: float, edges: FloatArray, layer: float, rot: FloatArray) -> bool:
     """Even-odd point-in-polygon test against the world edges of one layer."""
     inside = False
@@ -36,11 +33,12 @@ def inside(px: float, py: float, edges: FloatArray, layer: float, rot: FloatArra
     return inside
 
 
-@njit(cache=True, nogil=True)
-def world_edges(
-    edges: FloatArray, moving: bool, pb: float, pm: float, x0: float, ym: float
-) -> FloatArray:
-    out = np.empty((edges.shape[0], 4))
+@njit_no_refcount
+def fill_world_edges(
+    edges: FloatArray, moving: bool, pb: float, pm: float, x0: float, ym: float, out: FloatArray
+) -> None:
+    """The part's edges (rows ``x1, y1, x2, y2, layer`` in its body frame) in the world, into
+    ``out`` (n, 4)."""
     if moving:
         c, s = math.cos(pm), math.sin(pm)
         for k in range(edges.shape[0]):
@@ -55,13 +53,12 @@ def world_edges(
                 x, y = edges[k, 2 * j], edges[k, 2 * j + 1]
                 out[k, 2 * j] = c * x - s * y
                 out[k, 2 * j + 1] = s * x + c * y
-    return out
 
 
-@njit(cache=True, nogil=True)
+@njit_no_refcount
 def _box(world: FloatArray) -> tuple[float, float, float, float]:
     """(min x, max x, min y, max y) of world edges' end points (D)."""
-    lo_x, hi_x, lo_y, hi_y = np.inf, -np.inf, np.inf, -np.inf
+    lo_x, hi_x, lo_y, hi_y = math.inf, -math.inf, math.inf, -math.inf
     for i in range(world.shape[0]):
         for j in range(2):
             lo_x, hi_x = min(lo_x, world[i, 2 * j]), max(hi_x, world[i, 2 * j])
@@ -69,7 +66,7 @@ def _box(world: FloatArray) -> tuple[float, float, float, float]:
     return lo_x, hi_x, lo_y, hi_y
 
 
-@njit(cache=True, nogil=True)
+@njit_no_refcount
 def _apart(wb: FloatArray, wm: FloatArray) -> bool:
     """Are the parts' bounding boxes (of their world edges) apart? Then no edges cross and
     no vertex is inside the other part: the usual start, clear above the base, is decided
@@ -79,7 +76,7 @@ def _apart(wb: FloatArray, wm: FloatArray) -> bool:
     return m_lo_y > b_hi_y or b_lo_y > m_hi_y or m_lo_x > b_hi_x or b_lo_x > m_hi_x
 
 
-@njit(cache=True, nogil=True)
+@njit_no_refcount
 def overlapping(
     base_edges: FloatArray,
     moving_edges: FloatArray,
@@ -87,10 +84,14 @@ def overlapping(
     pm: float,
     x0: float,
     ym: float,
+    wb: FloatArray,
+    wm: FloatArray,
 ) -> bool:
-    """True when the parts interpenetrate in some layer (edges cross or a vertex is inside)."""
-    wb = world_edges(base_edges, False, pb, pm, x0, ym)
-    wm = world_edges(moving_edges, True, pb, pm, x0, ym)
+    """True when the parts interpenetrate in some layer (edges cross or a vertex is inside);
+    ``wb``, ``wm`` (n, 4) receive the parts' world edges (:class:`~.records.Work`'s
+    ``world_b`` and ``world_m``)."""
+    fill_world_edges(base_edges, False, pb, pm, x0, ym, wb)
+    fill_world_edges(moving_edges, True, pb, pm, x0, ym, wm)
     if _apart(wb, wm):
         return False
     for i in range(wb.shape[0]):

@@ -285,7 +285,9 @@ def _gap_bounds(
     """
     row, x0 = seg.pairs[i], seg.x0
     dt = step.h / pieces
-    arm = math.hypot(row[1], row[2])  # the vertex from its own pivot (D)
+    # sqrt of the sum of squares, not hypot: a bound, and glibc's hypot (exact to round-off
+    # without overflow, neither needed at a few D) was 5 % of the kernel's samples.
+    arm = math.sqrt(row[1] * row[1] + row[2] * row[2])  # the vertex from its own pivot (D)
     g_top, g_low, g_ceiling, g_floor = -math.inf, math.inf, -math.inf, math.inf
     ab_max, am_max = 0.0, 0.0  # the largest |dg/dphi| at the states (D/rad)
     # The previous state: gap, |dg/dphi| (D/rad), the vertex from the edge's pivot (D),
@@ -303,7 +305,8 @@ def _gap_bounds(
         if 0 < k < pieces:
             cb, sb, cm, sm = math.cos(pb), math.sin(pb), math.cos(pm), math.sin(pm)
         g, _, ab, am, _, px, py, _, _ = eval_pair(row, cb, sb, cm, sm, x0, y)
-        lever = math.hypot(px, py) if row[0] == 0.0 else math.hypot(px - x0, py - y)
+        lx, ly = (px, py) if row[0] == 0.0 else (px - x0, py - y)
+        lever = math.sqrt(lx * lx + ly * ly)
         vb, vm = 0.0, 0.0
         if pieces > 1:
             if k == 0:
@@ -452,7 +455,8 @@ def _segment_distance(row: FloatArray, g: float, u: float) -> float:
     """Distance (D) of the pair's vertex from its edge (the segment, not the line)."""
     if 0.0 <= u <= 1.0:
         return abs(g)
-    return math.hypot(g, (u if u < 0.0 else u - 1.0) * row[COL_EDGE_LENGTH])
+    along = (u if u < 0.0 else u - 1.0) * row[COL_EDGE_LENGTH]
+    return math.sqrt(g * g + along * along)  # as in _gap_bounds: no hypot
 
 
 @njit_no_refcount

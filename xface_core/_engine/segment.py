@@ -11,7 +11,15 @@ import math
 from numba import njit
 
 from .ends import Run, end_at_rest, end_run, record
-from .events import Event, Segment, Step, clear_step_memo, keep_trial_dense, step_to
+from .events import (
+    NO_EVENT,
+    Event,
+    Segment,
+    Step,
+    clear_step_memo,
+    keep_trial_dense,
+    step_to,
+)
 from .folds import cuts_in, solve_fold
 from .integrate import project
 from .pairs import eval_all_pairs
@@ -52,10 +60,10 @@ def _phase(run: Run) -> int:
     return P_SLIDE if abs(run.phi_b - run.phi_m) <= ALIGN_TOL else P_ALIGN
 
 
-@njit(cache=True, nogil=True)  # returns arrays (in the Segment): needs NRT
-def begin_segment(
+@njit_no_refcount
+def start_segment(
     model: Model, opts: Options, run: Run, work: Work, path: FloatArray, path_pairs: IntArray
-) -> Segment:
+) -> None:
     """Start exactly on the active constraints and note every pair's gap and threshold.
 
     Events leave gaps of up to the touching tolerance; projecting first makes the step
@@ -81,10 +89,28 @@ def begin_segment(
     record(run, path, path_pairs, _phase(run), act, n)
     clear_step_memo(work.step_memo)
     work.dense[1, 4] = 0.0  # no trial step's dense output yet
+
+
+@njit(inline="always")
+def _segment(model: Model, opts: Options, run: Run, work: Work) -> Segment:
+    """What stays fixed along the segment just started. Inlined, so the tuple of arrays is
+    built under the caller's reference counting (none in the engine, numba's for a caller
+    in Python)."""
     return Segment(
-        model.pairs, act, n, opts.friction, work.slip, run.x0, run.y_floor, opts.sqrt_winv_b,
-        opts.sqrt_winv_m, opts.winv_b, opts.winv_m, work.step_memo, work.dense,
+        model.pairs, work.act, run.n_active, opts.friction, work.slip, run.x0, run.y_floor,
+        opts.sqrt_winv_b, opts.sqrt_winv_m, opts.winv_b, opts.winv_m, work.step_memo,
+        work.dense,
     )  # fmt: skip
+
+
+@njit(cache=True, nogil=True)  # returns arrays (in the Segment) to Python: needs NRT
+def begin_segment(
+    model: Model, opts: Options, run: Run, work: Work, path: FloatArray, path_pairs: IntArray
+) -> Segment:
+    """:func:`start_segment`, and the :class:`Segment` it starts (for callers in Python:
+    the engine's :func:`follow_contacts` builds it in place)."""
+    start_segment(model, opts, run, work, path, path_pairs)
+    return _segment(model, opts, run, work)
 
 
 @njit_no_refcount
@@ -106,7 +132,7 @@ def trial_step(opts: Options, seg: Segment, step: Step) -> tuple[float, float, f
     return nb, nm, err, turn, ok
 
 
-@njit(cache=True, nogil=True)  # allocates below: needs NRT
+@njit_no_refcount
 def jump_to_fold(model: Model, run: Run, work: Work, located: bool, start: Step) -> None:
     """Move a two-contact run onto the fold of its path (where the pinned contacts reach
     their lowest point), if the fold is near and the jump cuts into no pair that was clear
@@ -190,7 +216,7 @@ def _shrink(opts: Options, h: float, err: float, turn: float, ok: bool) -> float
     return h * 0.25
 
 
-@njit(cache=True, nogil=True)  # allocates below: needs NRT
+@njit_no_refcount
 def advance_to_event(
     model: Model, opts: Options, run: Run, work: Work, seg: Segment, step: Step, ev: Event
 ) -> int:
@@ -231,7 +257,7 @@ def advance_to_event(
     return kind
 
 
-@njit(cache=True, nogil=True)  # allocates below: needs NRT
+@njit_no_refcount
 def handle_event(
     model: Model, opts: Options, run: Run, work: Work, seg: Segment, step: Step, ev: Event,
     path: FloatArray, path_pairs: IntArray,
@@ -266,18 +292,31 @@ def handle_event(
     run.h = max(run.h, 1e3 * opts.event_tol)
 
 
-@njit(cache=True, nogil=True)  # allocates below: needs NRT
-def follow_contacts(
-    model: Model, opts: Options, run: Run, work: Work, path: FloatArray, path_pairs: IntArray
-) -> None:
-    """Integrate with the active set fixed until the next event, and handle it."""
-    seg = begin_segment(model, opts, run, work, path, path_pairs)
+#: How the step loop of a segment stopped (:func:`steps_to_event`).
+LOOP_EVENT = 0  # an event inside the last trial step: handle it
+LOOP_DIVERGED = 1  # the trial length collapsed: the rate diverges ahead (a turning point)
+LOOP_ENDED = 2  # the run ended in the loop (out of steps)
+
+
+@njit_no_refcount
+def steps_to_event(
+    opts: Options, seg: Segment, run: Run, work: Work, path: FloatArray, path_pairs: IntArray
+) -> tuple[int, Step, Event]:
+    """Try steps with the active set fixed, accepting each until one holds an event:
+    ``(how it stopped, the last trial step, its event)``.
+
+    Compiled without NRT, apart from :func:`follow_contacts` (whose fold handling
+    allocates): every stage call of a step passes the segment's and the run's arrays, and
+    with NRT each call counted a reference of every one of them, two atomic operations per
+    array (about 8 % of the kernel's samples on S 0.5/1, ``scripts/profile_kernel.py``).
+    """
     after_reject = False
     h_prev, err_prev = 0.0, 0.0  # the segment's last accepted step (0: none yet)
+    step = Step(run.phi_b, run.phi_m, run.y_m, run.h)
     while run.outcome == UNDECIDED:
         if run.steps >= opts.max_steps:
             end_run(run, path, path_pairs, work.act, O_UNRESOLVED, R_STEP_LIMIT, True)
-            return
+            return LOOP_ENDED, step, NO_EVENT
         run.h = min(run.h, opts.max_step)
         step = Step(run.phi_b, run.phi_m, run.y_m, run.h)
         nb, nm, err, turn, ok = trial_step(opts, seg, step)
@@ -286,12 +325,7 @@ def follow_contacts(
             if step.h <= opts.event_tol:
                 # The rate diverges: the contacts reach a turning point (a contact normal
                 # through both pivots). The seat itself is such a point.
-                jump_to_fold(model, run, work, False, step)
-                end_at_rest(
-                    run, path, path_pairs, work.act, model.mated_distance, opts.seat_tol,
-                    R_SINGULAR, True,
-                )  # fmt: skip
-                return
+                return LOOP_DIVERGED, step, NO_EVENT
             run.h = _shrink(opts, step.h, err, turn, ok)
             after_reject = True
             continue
@@ -301,5 +335,23 @@ def follow_contacts(
             accept_step(run, work, nb, nm, h_next, path, path_pairs)
             h_prev, err_prev, after_reject = step.h, err, False
             continue
+        return LOOP_EVENT, step, ev
+    return LOOP_ENDED, step, NO_EVENT
+
+
+@njit_no_refcount
+def follow_contacts(
+    model: Model, opts: Options, run: Run, work: Work, path: FloatArray, path_pairs: IntArray
+) -> None:
+    """Integrate with the active set fixed until the next event, and handle it."""
+    start_segment(model, opts, run, work, path, path_pairs)
+    seg = _segment(model, opts, run, work)
+    stop, step, ev = steps_to_event(opts, seg, run, work, path, path_pairs)
+    if stop == LOOP_EVENT:
         handle_event(model, opts, run, work, seg, step, ev, path, path_pairs)
-        return
+    elif stop == LOOP_DIVERGED:
+        jump_to_fold(model, run, work, False, step)
+        end_at_rest(
+            run, path, path_pairs, work.act, model.mated_distance, opts.seat_tol, R_SINGULAR,
+            True,
+        )  # fmt: skip

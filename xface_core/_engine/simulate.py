@@ -30,12 +30,15 @@ from .records import (
     IntArray,
     Model,
     Options,
+    Work,
     new_work,
+    njit_no_refcount,
+    reset_work,
 )
 from .segment import follow_contacts
 
 
-@njit(cache=True, nogil=True)
+@njit_no_refcount
 def simulate(
     model: Model,
     opts: Options,
@@ -45,14 +48,16 @@ def simulate(
     run: Run,
     path: FloatArray,
     path_pairs: IntArray,
+    work: Work,
 ) -> None:
-    """Simulate one dock from (x0, theta0) with the moving pivot at y_start (D, rad).
+    """Simulate one dock from (x0, theta0) with the moving pivot at y_start (D, rad), in the
+    scratch arrays ``work`` (fresh from :func:`new_work`, or put back by :func:`reset_work`).
 
     The result is left in ``run`` (a row of ``RUN_DTYPE``); ``path`` (n, 4: y_m, phi_b,
     phi_m, phase) and ``path_pairs`` (n, 4) receive the samples. Pass (1, 4) arrays to skip
-    recording (only the final sample is then kept).
+    recording (only the final sample is then kept). Allocates nothing and counts no
+    references (:func:`~.records.njit_no_refcount`): the entries below make the arrays.
     """
-    work = new_work(model, opts)
     start_run(model, opts, x0, theta0, y_start, run, work, path, path_pairs)
     while run.outcome == UNDECIDED:
         begin_interval(model, opts, run, work, path, path_pairs)
@@ -76,7 +81,7 @@ def simulate_one(
     path_pairs: IntArray,
 ) -> None:
     """:func:`simulate` into ``runs[0]`` (a one-row ``RUN_DTYPE`` array made in Python)."""
-    simulate(model, opts, x0, theta0, y_start, runs[0], path, path_pairs)
+    simulate(model, opts, x0, theta0, y_start, runs[0], path, path_pairs, new_work(model, opts))
 
 
 @njit(cache=True, nogil=True)
@@ -94,6 +99,7 @@ def simulate_many(
     runs = np.zeros(n, dtype=RUN_DTYPE)
     path = np.zeros((1, 4))
     pairs = np.full((1, 4), -1, dtype=np.int64)
+    work = new_work(model, opts)
     for k in range(n):
         run = runs[k]
         if not valid[k]:
@@ -101,7 +107,8 @@ def simulate_many(
             run.phi_b = math.nan
             run.phi_m = math.nan
             continue
-        simulate(model, opts, xs[k], ts[k], ys[k], run, path, pairs)
+        reset_work(work)
+        simulate(model, opts, xs[k], ts[k], ys[k], run, path, pairs, work)
     return runs
 
 
@@ -194,7 +201,7 @@ def _run_recorded(
     while True:
         path = np.empty((n_buf, 4))
         pairs = np.empty((n_buf, 4), dtype=np.int64)
-        simulate(model, opts, x0, theta0, y_start, runs[0], path, pairs)
+        simulate(model, opts, x0, theta0, y_start, runs[0], path, pairs, new_work(model, opts))
         if n_buf == 1 or runs[0].n_samples <= n_buf:
             return runs, path, pairs
         n_buf = runs[0].n_samples

@@ -321,7 +321,10 @@ def _choose(table: np.ndarray, state) -> tuple[tuple, np.ndarray, np.ndarray]:
     eval_all_pairs(table, *state, ev)
     act = np.full(4, -1, dtype=np.int64)
     cand = np.array([0, 1], dtype=np.int64)
-    return choose_motion(table, ev, cand, 2, *state, 0.0, 1.0, act), act, ev
+    scratch = np.empty((3, 4), dtype=np.int64)
+    trial, rays = np.empty(4, dtype=np.int64), np.empty((4, 2))
+    chosen = choose_motion(table, ev, cand, 2, *state, 0.0, 1.0, act, scratch, trial, rays)
+    return chosen, act, ev
 
 
 def test_an_opening_corner_leaves_the_motion_of_the_edge_contact(incline) -> None:

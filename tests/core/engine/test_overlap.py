@@ -6,7 +6,13 @@ import numpy as np
 import pytest
 
 import xface_core as xf
-from xface_core._engine.overlap import _apart, inside, overlapping, segments_cross, world_edges
+from xface_core._engine.overlap import (
+    _apart,
+    fill_world_edges,
+    inside,
+    overlapping,
+    segments_cross,
+)
 from xface_core.contact import pair_table
 
 
@@ -39,6 +45,19 @@ def test_inside_is_the_even_odd_rule_of_one_layer() -> None:
     assert inside(5.5, 5.5, edges, 1.0, world)
 
 
+def world_edges(
+    edges: np.ndarray, moving: bool, pb: float, pm: float, x0: float, ym: float
+) -> np.ndarray:
+    out = np.full((edges.shape[0], 4), np.nan)
+    fill_world_edges(edges, moving, pb, pm, x0, ym, out)
+    return out
+
+
+def _overlapping(base: np.ndarray, moving: np.ndarray, pm: float, x0: float, y: float) -> bool:
+    wb, wm = np.empty((base.shape[0], 4)), np.empty((moving.shape[0], 4))
+    return bool(overlapping(base, moving, 0.0, pm, x0, y, wb, wm))
+
+
 def test_world_edges_turn_the_moving_part_about_its_pivot() -> None:
     edges = np.array([[1.0, 0.0, 1.0, 2.0, 0.0]])
     # Moving part at pivot (3, 4) turned by 0: a body point v sits at P_M - v.
@@ -53,7 +72,7 @@ TABLE = pair_table(DESIGN)
 
 
 def _overlap(x0: float, theta0: float, y: float) -> bool:
-    return bool(overlapping(TABLE.base_edges, TABLE.moving_edges, 0.0, theta0, x0, y))
+    return _overlapping(TABLE.base_edges, TABLE.moving_edges, theta0, x0, y)
 
 
 def test_parts_apart_do_not_overlap() -> None:
@@ -69,7 +88,7 @@ def test_a_part_deep_inside_the_other_overlaps_without_crossing_edges() -> None:
     tiny = np.array(
         [[0.0, 0.0, 0.1, 0.0, 0.0], [0.1, 0.0, 0.0, 0.1, 0.0], [0.0, 0.1, 0.0, 0.0, 0.0]]
     )
-    assert overlapping(TABLE.base_edges, tiny, 0.0, 0.0, 0.0, 0.5)
+    assert _overlapping(TABLE.base_edges, tiny, 0.0, 0.0, 0.5)
 
 
 def test_parts_whose_boxes_are_apart_are_decided_by_the_boxes() -> None:
@@ -79,3 +98,15 @@ def test_parts_whose_boxes_are_apart_are_decided_by_the_boxes() -> None:
     close_b = world_edges(TABLE.base_edges, False, 0.0, 0.0, 0.0, 0.5 * DESIGN.mated_distance)
     close_m = world_edges(TABLE.moving_edges, True, 0.0, 0.0, 0.0, 0.5 * DESIGN.mated_distance)
     assert not _apart(close_b, close_m)
+
+
+@pytest.mark.parametrize(("x0", "theta0", "y"), [(0.2, 0.3, 5.0), (0.0, 0.0, 0.5), (0.1, 0.2, 1.0)])
+def test_the_check_leaves_the_world_edges_in_the_given_arrays(
+    x0: float, theta0: float, y: float
+) -> None:
+    # The engine's form: the caller's scratch arrays (Work.world_b, world_m), no allocation.
+    wb = np.full((TABLE.base_edges.shape[0], 4), np.nan)
+    wm = np.full((TABLE.moving_edges.shape[0], 4), np.nan)
+    overlapping(TABLE.base_edges, TABLE.moving_edges, 0.0, theta0, x0, y, wb, wm)
+    assert np.array_equal(wb, world_edges(TABLE.base_edges, False, 0.0, theta0, x0, y))
+    assert np.array_equal(wm, world_edges(TABLE.moving_edges, True, 0.0, theta0, x0, y))

@@ -170,8 +170,11 @@ def test_next_contact_is_the_first_touch_of_a_pure_descent(x0: float, theta0: fl
     assert g == pytest.approx(0.0, abs=1e-12)
     assert -1e-12 <= u <= 1.0 + 1e-12
 
+    wb, wm = np.empty((len(table.base_edges), 4)), np.empty((len(table.moving_edges), 4))
+
     def overlap(s: float) -> bool:
-        return bool(overlapping(table.base_edges, table.moving_edges, 0.0, theta0, x0, y - s))
+        b, m = table.base_edges, table.moving_edges
+        return bool(overlapping(b, m, 0.0, theta0, x0, y - s, wb, wm))
 
     # Clear of each other all the way down to d, cutting in just beyond it.
     assert not any(overlap(s) for s in np.linspace(0.0, d, 50)[:-1])

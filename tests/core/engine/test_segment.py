@@ -6,18 +6,22 @@ import numpy as np
 import pytest
 
 from xface_core._engine.records import (
+    E_CONTACT,
     MAX_TURN,
     P_ALIGN,
     RUN_DTYPE,
+    UNDECIDED,
     Model,
     make_options,
     new_work,
 )
 from xface_core._engine.segment import (
+    LOOP_EVENT,
     _shrink,
     accept_step,
     begin_segment,
     next_length,
+    steps_to_event,
     trial_step,
 )
 from xface_core.physics import Physics
@@ -135,3 +139,17 @@ def test_shrink_after_a_failed_step_is_a_quarter() -> None:
 def test_shrink_by_the_error_estimate() -> None:
     assert _shrink(OPTS, 1e-2, 32.0, 1e-3, True) == pytest.approx(1e-2 * 0.9 / 2.0)
     assert _shrink(OPTS, 1e-2, 1e9, 1e-3, True) == pytest.approx(1e-2 * 0.2)
+
+
+def test_the_step_loop_stops_at_the_first_event_with_the_steps_before_it_taken(incline) -> None:
+    # The incline's second vertex touches the flat edge at the descent s_touch: the loop
+    # accepts the steps before it and hands back the trial step that holds it.
+    seg, runs, work, path, pairs = _begin(incline, incline.phi_m0, incline.y0)
+    r = runs[0]
+    r["outcome"] = UNDECIDED
+    stop, step, ev = steps_to_event(OPTS, seg, r, work, path, pairs)
+    assert (stop, ev.kind, ev.pair) == (LOOP_EVENT, E_CONTACT, 1)
+    assert r["steps"] >= 1
+    assert step.y_m == r["y_m"]  # the run stands at the trial step's start
+    touch = incline.y0 - step.y_m + ev.h
+    assert touch == pytest.approx(incline.s_touch, abs=2 * OPTS.event_tol)

@@ -62,6 +62,26 @@ def test_simulate_many_agrees_with_simulate_one() -> None:
         assert many[k].tolist() == one.tolist()
 
 
+@pytest.mark.parametrize("physics", [Physics(), Physics(friction=0.3)], ids=["mu0", "mu0.3"])
+def test_the_batch_reuses_one_work_and_every_row_is_the_pose_alone(physics: Physics) -> None:
+    # simulate_many puts one set of scratch arrays back between its poses (reset_work): a
+    # run must not see anything of the one before it, so each row equals the pose
+    # simulated alone in fresh arrays, bit for bit. On the S-Face, whose flush edges make
+    # the runs most varied (seats, jams, several events each).
+    design = xf.s_face(0.5, 1.0)
+    model, opts = engine_model(design), make_options(physics)
+    rng = np.random.default_rng(7)
+    xs, ts = rng.uniform(-0.8, 0.8, 40), rng.uniform(-0.6, 0.6, 40)
+    ys = start_heights(design, ts)
+    many = simulate_many(model, opts, xs, ts, ys, np.ones(40, dtype=np.bool_))
+    assert len(set(many["outcome"].tolist())) >= 2
+    for k in range(40):
+        runs = np.zeros(1, dtype=RUN_DTYPE)
+        path, pairs = np.zeros((1, 4)), np.full((1, 4), -1, dtype=np.int64)
+        simulate_one(model, opts, xs[k], ts[k], ys[k], runs, path, pairs)
+        assert many[k].tolist() == runs[0].tolist(), k
+
+
 def test_out_of_reach_ends_at_once_with_one_end_sample() -> None:
     x0 = MODEL.mated_distance + 0.1
     run, path, pairs = _one(x0, 0.0, 5.0)
