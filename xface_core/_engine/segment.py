@@ -305,10 +305,8 @@ def steps_to_event(
     """Try steps with the active set fixed, accepting each until one holds an event:
     ``(how it stopped, the last trial step, its event)``.
 
-    Compiled without NRT, apart from :func:`follow_contacts` (whose fold handling
-    allocates): every stage call of a step passes the segment's and the run's arrays, and
-    with NRT each call counted a reference of every one of them, two atomic operations per
-    array (about 8 % of the kernel's samples on S 0.5/1, ``scripts/profile_kernel.py``).
+    The loop of :func:`follow_contacts`, which handles what ends it (an event, or a turning
+    point where the trial length collapsed: the fold's jump and the run's end).
     """
     after_reject = False
     h_prev, err_prev = 0.0, 0.0  # the segment's last accepted step (0: none yet)
