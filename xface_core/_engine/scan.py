@@ -172,7 +172,7 @@ def _contact_events(
             # to evaluate (most pairs of a run, most of the time). Its values at the start
             # are carried on, stale, until it wakes. The budget is spent here, before the
             # step is known to be taken: a step that ends in an event ends the segment, and
-            # begin_segment wakes every pair.
+            # start_segment wakes every pair.
             sleep[i, 0] -= travel
             sleep[i, 1] = travel
             sleep[i, 2] = 1.0
