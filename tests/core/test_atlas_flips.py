@@ -66,7 +66,7 @@ def test_known_flips_are_not_simulated_again(
     def no_simulation(*args: object, **kwargs: object) -> None:
         raise AssertionError("simulated a known flip again")
 
-    monkeypatch.setattr(atlas_flips, "predict_batch", no_simulation)
+    monkeypatch.setattr(atlas_flips, "run_flat", no_simulation)
     assert grid_flips(x_atlas, keys, RESOLUTION) == first
 
 
