@@ -289,40 +289,41 @@ class Work(NamedTuple):
 
 @njit(cache=True, nogil=True)
 def new_work(model: Model, opts: Options) -> Work:
-    """Fresh scratch arrays for one run."""
+    """Fresh scratch arrays for one run (or a batch of runs, :func:`reset_work` between
+    them), set as a run starts by :func:`reset_work` itself."""
     n = model.pairs.shape[0]
-    sleep = np.zeros((n, 3))
-    sleep[:, 1] = -1.0  # every pair in reach
-    return Work(
+    work = Work(
         np.empty((n, 6)),
         np.empty(n),
         np.empty(n),
         np.empty(n),
         np.empty(n),
-        np.zeros(n),
+        np.empty(n),
         # Room for every pair: a flush contact of finely divided outlines touches many pairs
         # at once, and a pair left out of the motion choice would be cut into unseen.
         np.empty(n, dtype=np.int64),
-        np.full(MAX_EXCLUDED, -1, dtype=np.int64),
-        np.full(4, -1, dtype=np.int64),
-        np.full(2, FREE, dtype=np.int64),
-        np.zeros((4, 2)),
-        np.zeros((FINE_SAMPLES, 6)),
-        np.zeros((STEP_MEMO_SLOTS + 1, 18)),
-        sleep,
-        np.zeros((2, DENSE_WIDTH)),
+        np.empty(MAX_EXCLUDED, dtype=np.int64),
+        np.empty(4, dtype=np.int64),
+        np.empty(2, dtype=np.int64),
+        np.empty((4, 2)),
+        np.empty((FINE_SAMPLES, 6)),
+        np.empty((STEP_MEMO_SLOTS + 1, 18)),
+        np.empty((n, 3)),
+        np.empty((2, DENSE_WIDTH)),
         np.empty((3, n + 2), dtype=np.int64),
-        np.full(4, -1, dtype=np.int64),
+        np.empty(4, dtype=np.int64),  # choose_motion sets it before each use
         np.empty((model.base_edges.shape[0], 4)),
         np.empty((model.moving_edges.shape[0], 4)),
     )
+    reset_work(work)
+    return work
 
 
 @njit_no_refcount
 def reset_work(work: Work) -> None:
-    """Put a used :func:`new_work` back to how it starts a run, for the next run of a batch
-    (one allocation per batch instead of 15 per run; the arrays :func:`new_work` leaves
-    uninitialised are written before they are read, as in a fresh one)."""
+    """Set the scratch arrays as a run starts: :func:`new_work` does it once, and a batch puts
+    a used one back between runs with it (one allocation per batch instead of 15 per run).
+    The arrays left out are written before they are read."""
     work.thr[:] = 0.0
     work.exclude[:] = -1
     work.act[:] = -1

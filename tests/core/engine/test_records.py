@@ -108,6 +108,11 @@ def test_reset_work_returns_a_used_work_to_how_new_work_starts_it() -> None:
     for name in ("thr", "exclude", "act", "slip", "rays", "samples", "step_memo", "sleep",
                  "dense"):  # fmt: skip
         assert np.array_equal(getattr(used, name), getattr(fresh, name)), name
+    # new_work sets them through reset_work: their values as a run starts, spelled out.
+    for name in ("thr", "rays", "samples", "step_memo", "dense"):
+        assert not np.any(getattr(fresh, name)), name
+    n = model.pairs.shape[0]
+    assert np.array_equal(fresh.sleep, np.column_stack([np.zeros(n), -np.ones(n), np.zeros(n)]))
 
 
 #: The engine functions compiled with numba's reference counting (NRT): the entries from
