@@ -13,7 +13,7 @@ from .records import CUT_DEPTH, FOLD_REACH, U_CORNER, FloatArray, IntArray, njit
 
 
 @njit_no_refcount
-def _det3(
+def det3(
     m00: float, m01: float, m02: float, m10: float, m11: float, m12: float, m20: float,
     m21: float, m22: float,
 ) -> float:  # fmt: skip
@@ -26,32 +26,19 @@ def _det3(
 
 
 @njit_no_refcount
-def det3(m: FloatArray) -> float:
-    return _det3(m[0, 0], m[0, 1], m[0, 2], m[1, 0], m[1, 1], m[1, 2], m[2, 0], m[2, 1], m[2, 2])
-
-
-@njit_no_refcount
-def _solve3(
+def solve3(
     m00: float, m01: float, m02: float, m10: float, m11: float, m12: float, m20: float,
     m21: float, m22: float, b0: float, b1: float, b2: float,
 ) -> tuple[bool, float, float, float]:  # fmt: skip
-    """Cramer's rule for the 3 x 3 system with these entries (row by row) and right side."""
-    det = _det3(m00, m01, m02, m10, m11, m12, m20, m21, m22)
+    """Cramer's rule for the 3 x 3 system with these entries (row by row) and right side
+    (numba's np.linalg would need scipy's LAPACK; scalars: nothing allocated)."""
+    det = det3(m00, m01, m02, m10, m11, m12, m20, m21, m22)
     if not abs(det) > 1e-300:
         return False, 0.0, 0.0, 0.0
-    x0 = _det3(b0, m01, m02, b1, m11, m12, b2, m21, m22) / det
-    x1 = _det3(m00, b0, m02, m10, b1, m12, m20, b2, m22) / det
-    x2 = _det3(m00, m01, b0, m10, m11, b1, m20, m21, b2) / det
+    x0 = det3(b0, m01, m02, b1, m11, m12, b2, m21, m22) / det
+    x1 = det3(m00, b0, m02, m10, b1, m12, m20, b2, m22) / det
+    x2 = det3(m00, m01, b0, m10, m11, b1, m20, m21, b2) / det
     return True, x0, x1, x2
-
-
-@njit_no_refcount
-def solve3(m: FloatArray, b0: float, b1: float, b2: float) -> tuple[bool, float, float, float]:
-    """Cramer's rule for a 3 x 3 system (numba's np.linalg would need scipy's LAPACK)."""
-    return _solve3(
-        m[0, 0], m[0, 1], m[0, 2], m[1, 0], m[1, 1], m[1, 2], m[2, 0], m[2, 1], m[2, 2],
-        b0, b1, b2,
-    )  # fmt: skip
 
 
 @njit_no_refcount
@@ -89,7 +76,7 @@ def solve_fold(
         p0, p1, p2 = fold_residual(table, act, xb + h, xm, x0, xy)
         q0, q1, q2 = fold_residual(table, act, xb, xm + h, x0, xy)
         r0, r1, r2 = fold_residual(table, act, xb, xm, x0, xy + h)
-        ok, dx0, dx1, dx2 = _solve3(
+        ok, dx0, dx1, dx2 = solve3(
             (p0 - f0) / h, (q0 - f0) / h, (r0 - f0) / h,
             (p1 - f1) / h, (q1 - f1) / h, (r1 - f1) / h,
             (p2 - f2) / h, (q2 - f2) / h, (r2 - f2) / h,
