@@ -111,6 +111,14 @@ def rk_step(
 
     The step's dense output goes to row 0 of ``dense`` (``DENSE_WIDTH`` values, see
     :func:`dense_angles`); the interpolant ends on the projected end state."""
+    if nact == 2:
+        # Two contacts pin both angles at every height: solve them there (exact to
+        # round-off) unless the solve is ill-conditioned or unsure (then integrate).
+        nb, nm, res, ok = pinned_step(
+            table, act, pb, pm, x0, ym, h, sqb, sqm, mu, slip, k1b, k1m, dense
+        )
+        if ok:
+            return nb, nm, res, res, True
     k2b, k2m, _, _ = velocity(
         table,
         act,
@@ -195,6 +203,99 @@ def rk_step(
     _dense_coefficients(dense, 5, pb, nb, h, k1b, k3b, k4b, k5b, k6b, k7b)
     _dense_coefficients(dense, 9, pm, nm, h, k1m, k3m, k4m, k5m, k6m, k7m)
     return nb, nm, eb, em, ok
+
+
+#: A two-contact step is solved, not integrated, only where the contacts' gap gradients
+#: (in the angles) are at least this far from parallel: |det| >= PINNED_CONDITION |a1| |a2|
+#: (the sine of the angle between them). Below it, a flush pair reaching its edge ends
+#: (singular to 1e-4, S-Face 0.5/1), Newton wanders along the nearly free direction.
+PINNED_CONDITION = 1e-2
+#: Newton iterations of a two-contact solve, and the gap (D) both contacts must reach.
+PINNED_ITERATIONS = 6
+PINNED_GAP = 1e-14
+
+
+@njit_no_refcount
+def pinned_solve(
+    table: FloatArray, act: IntArray, pb: float, pm: float, x0: float, ym: float
+) -> tuple[float, float, float, float, bool]:
+    """Newton's method on both active gaps at the height ``ym`` (D) from ``(pb, pm)``:
+    ``(phi_b, phi_m, v_b, v_m, converged)`` with the rate there (rad per D: the gaps held,
+    ``J v = beta``, the same for any metric or friction with two contacts); converged only
+    if both gaps reached ``PINNED_GAP`` with the gradients at least ``PINNED_CONDITION``
+    from parallel all the way."""
+    nan = math.nan
+    for _ in range(PINNED_ITERATIONS):
+        cb, sb, cm, sm = math.cos(pb), math.sin(pb), math.cos(pm), math.sin(pm)
+        g1, _, ab1, am1, b1, _, _, _, _ = eval_pair(table[act[0]], cb, sb, cm, sm, x0, ym)
+        g2, _, ab2, am2, b2, _, _, _, _ = eval_pair(table[act[1]], cb, sb, cm, sm, x0, ym)
+        det = ab1 * am2 - am1 * ab2
+        scale = math.sqrt((ab1 * ab1 + am1 * am1) * (ab2 * ab2 + am2 * am2))
+        if not (abs(det) >= PINNED_CONDITION * scale and scale > 0.0):
+            return pb, pm, nan, nan, False
+        if max(abs(g1), abs(g2)) <= PINNED_GAP:
+            return pb, pm, (b1 * am2 - am1 * b2) / det, (ab1 * b2 - b1 * ab2) / det, True
+        pb -= (g1 * am2 - am1 * g2) / det
+        pm -= (ab1 * g2 - g1 * ab2) / det
+    return pb, pm, nan, nan, False
+
+
+@njit_no_refcount
+def pinned_step(
+    table: FloatArray, act: IntArray, pb: float, pm: float, x0: float, ym: float, h: float,
+    sqb: float, sqm: float, mu: float, slip: IntArray, k1b: float, k1m: float,
+    dense: FloatArray,
+) -> tuple[float, float, float, bool]:  # fmt: skip
+    """A step of length ``h`` (D) along a path pinned by two active contacts, solved instead
+    of integrated: Heun's predictor from the start rate ``(k1b, k1m)``, then
+    :func:`pinned_solve` at the step's end height. ``(phi_b, phi_m, error, ok)``, the error
+    the solve's last correction (round-off). Not ``ok`` (the caller integrates instead)
+    when the solve did not converge, or its solution is not the continuation of the start:
+    the rate there not finite or turned against the start's, or the solve moved further
+    from the predictor than a quarter of the step's turn (another branch of the contacts'
+    solutions, as next to a fold, where two meet).
+
+    The dense output is the cubic Hermite interpolant through both ends and their rates;
+    its error estimate (columns 13, 14) is the predictor's distance from the solution,
+    O(h^3) against the interpolant's O(h^4)."""
+    eb_ = pb + h * k1b
+    em_ = pm + h * k1m
+    vb, vm, _, _ = velocity(table, act, 2, eb_, em_, x0, ym - h, sqb, sqm, mu, slip)
+    if not math.isfinite(vb + vm):
+        return pb, pm, 0.0, False
+    qb = pb + 0.5 * h * (k1b + vb)
+    qm = pm + 0.5 * h * (k1m + vm)
+    nb, nm, k7b, k7m, converged = pinned_solve(table, act, qb, qm, x0, ym - h)
+    if not converged:
+        return pb, pm, 0.0, False
+    moved = max(abs(nb - qb), abs(nm - qm))
+    if not moved <= 0.25 * max(abs(qb - pb), abs(qm - pm)) + 1e-12:
+        return pb, pm, 0.0, False
+    if mu > 0.0:
+        # The rate is the solve's; velocity also says where friction cannot share the load.
+        k7b, k7m, _, _ = velocity(table, act, 2, nb, nm, x0, ym - h, sqb, sqm, mu, slip)
+    if not (math.isfinite(k7b + k7m) and k7b * k1b + k7m * k1m > 0.0):
+        return pb, pm, 0.0, False
+    dense[0, 0], dense[0, 1], dense[0, 2], dense[0, 3] = pb, pm, ym, h
+    dense[0, 4] = 1.0
+    dense[0, 13], dense[0, 14] = abs(nb - qb), abs(nm - qm)
+    _hermite_coefficients(dense, 5, pb, nb, h, k1b, k7b)
+    _hermite_coefficients(dense, 9, pm, nm, h, k1m, k7m)
+    return nb, nm, 0.0, True
+
+
+@njit_no_refcount
+def _hermite_coefficients(
+    dense: FloatArray, at: int, y0: float, y1: float, h: float, k1: float, k7: float
+) -> None:
+    """One angle's cubic Hermite interpolant in the dense output's form
+    (:func:`_dense_coefficients` with its quartic term zero)."""
+    diff = y1 - y0
+    slope_start = h * k1 - diff
+    dense[0, at] = diff
+    dense[0, at + 1] = slope_start
+    dense[0, at + 2] = diff - h * k7 - slope_start
+    dense[0, at + 3] = 0.0
 
 
 @njit_no_refcount

@@ -46,6 +46,7 @@ from .records import (
     E_SPUN,
     E_TURN,
     FINE_SAMPLES,
+    FLAT_GAP,
     FREE,
     SLEEP_SLACK,
     TOUCH_WINDOW,
@@ -218,7 +219,7 @@ def _contact_events(
             if at_h != best.h:
                 at = _trig_after(seg, step, best.h)
                 at_h = best.h
-            if contact_value(row, thr[i], *at, x0, step.y_m - at_h) > 0.0:
+            if contact_value(row, thr[i], *at, x0, step.y_m - at_h) > -FLAT_GAP:
                 continue
             t_early = max(best.h - 2.0 * tol, 0.0)
             if early_h != best.h:
@@ -407,7 +408,7 @@ def _contacts_before(
         for i in range(pairs.shape[0]):
             if (n_act > 0 and act[0] == i) or (n_act > 1 and act[1] == i) or asleep(work, i):
                 continue
-            if contact_value(pairs[i], thr[i], *at_event, x0, step.y_m - best.h) > 0.0:
+            if contact_value(pairs[i], thr[i], *at_event, x0, step.y_m - best.h) > -FLAT_GAP:
                 continue
             row = pairs[i]
             if g_prev[i] <= thr[i] and (

@@ -178,3 +178,15 @@ def test_the_reach_budget_is_below_every_distance_at_which_a_pair_is_looked_at(s
         to_edge = np.hypot((u - t) * length, g).min()
         to_corner = np.hypot(u * length, g) - 0.51 * length
         assert _reach_budget(row, g, u) <= min(to_edge, max(to_corner, 0.0)) + 1e-12
+
+
+def test_a_pair_flat_at_the_event_does_not_come_before_it() -> None:
+    # V 0.5/1 from x0 0.6 D, theta0 -pi/20: two contacts carry the parts to the seat, where
+    # a third closes. A vertex held on a neighbouring edge's line has a contact function
+    # zero to round-off there (flat: "located" at the step's start). When its round-off
+    # fell below zero at the seat's state, it came first and ended the run 8e-5 rad short
+    # of the seat (seen once the two-contact steps were solved instead of integrated).
+    design = xf.v_face(0.5, 1.0)
+    p = xf.predict(design, 0.6 * design.width, -np.pi / 20.0)
+    assert p.outcome == xf.Outcome.SEATED
+    assert abs(p.phi_b - p.phi_m) < 1e-9
