@@ -121,12 +121,11 @@ def clipped_gap(
     function, where the plain gap crosses twice (out past the corner, back in) and can do so
     inside one integration step unseen.
     """
-    g_start, convex_start = adjacent_gap(row, cb, sb, cm, sm, x0, y_m, False)
-    if convex_start:
-        g = max(g, g_start)
-    g_end, convex_end = adjacent_gap(row, cb, sb, cm, sm, x0, y_m, True)
-    if convex_end:
-        g = max(g, g_end)
+    # Only a convex end clips: a reflex one's neighbour line is not computed at all.
+    if row[14] > 0.5:
+        g = max(g, adjacent_gap(row, cb, sb, cm, sm, x0, y_m, False)[0])
+    if row[15] > 0.5:
+        g = max(g, adjacent_gap(row, cb, sb, cm, sm, x0, y_m, True)[0])
     return g
 
 

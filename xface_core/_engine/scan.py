@@ -560,9 +560,16 @@ def _contacts_inside_step(
             > bound
         ):
             continue
-        if clipped_gap(row, g_next[i], cb1, sb1, cm1, sm1, x0, y1) <= thr[i]:
+        # (The clipped gap is never below the plain one: a plain gap above the threshold
+        # spares computing it.)
+        if (
+            g_next[i] <= thr[i]
+            and clipped_gap(row, g_next[i], cb1, sb1, cm1, sm1, x0, y1) <= thr[i]
+        ):
             continue  # crossed by the step's end: _contact_events' case
-        if clipped_gap(row, g_prev[i], cb0, sb0, cm0, sm0, x0, step.y_m) <= thr[i]:
+        if g_prev[i] <= thr[i] and (
+            clipped_gap(row, g_prev[i], cb0, sb0, cm0, sm0, x0, step.y_m) <= thr[i]
+        ):
             continue  # inside at the start already
         if rates[0] < 0.0:
             rates = _turn_rates(seg, step, nb, nm)
