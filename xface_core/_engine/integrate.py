@@ -105,20 +105,54 @@ def rk_step(
     k1m: float,
     dense: FloatArray,
 ) -> tuple[float, float, float, float, bool]:
-    """One Dormand-Prince step of length h in descent from the start rate ``(k1b, k1m)``
-    (rad per D: :func:`~.motion.velocity` there, which every step from one start shares,
-    and the event searches take many); returns (pb, pm, err_b, err_m, ok).
+    """One step of length h in descent from the start rate ``(k1b, k1m)`` (rad per D:
+    :func:`~.motion.velocity` there, which every step from one start shares, and the event
+    searches take many); returns (pb, pm, err_b, err_m, ok).
 
+    Solved on the contacts where they pin the path (:func:`pinned_step`: two contacts, or
+    one with the base held, frictionless), else integrated (:func:`dormand_prince_step`).
     The step's dense output goes to row 0 of ``dense`` (``DENSE_WIDTH`` values, see
-    :func:`dense_angles`); the interpolant ends on the projected end state."""
-    if nact == 2:
-        # Two contacts pin both angles at every height: solve them there (exact to
-        # round-off) unless the solve is ill-conditioned or unsure (then integrate).
+    :func:`dense_angles`); the interpolant ends on the step's end state."""
+    if nact == 2 or (nact == 1 and winv_b == 0.0 and mu == 0.0):
+        # Two contacts pin both angles at every height, one contact the moving part's
+        # angle while the base is held: solve them there (exact to round-off) unless the
+        # solve is ill-conditioned or unsure (then integrate).
         nb, nm, res, ok = pinned_step(
-            table, act, pb, pm, x0, ym, h, sqb, sqm, mu, slip, k1b, k1m, dense
+            table, act, nact, pb, pm, x0, ym, h, sqb, sqm, mu, slip, k1b, k1m, dense
         )
         if ok:
             return nb, nm, res, res, True
+    return dormand_prince_step(
+        table, act, nact, pb, pm, x0, ym, h, sqb, sqm, winv_b, winv_m, mu, slip, k1b, k1m,
+        dense,
+    )  # fmt: skip
+
+
+@njit_no_refcount
+def dormand_prince_step(
+    table: FloatArray,
+    act: IntArray,
+    nact: int,
+    pb: float,
+    pm: float,
+    x0: float,
+    ym: float,
+    h: float,
+    sqb: float,
+    sqm: float,
+    winv_b: float,
+    winv_m: float,
+    mu: float,
+    slip: IntArray,
+    k1b: float,
+    k1m: float,
+    dense: FloatArray,
+) -> tuple[float, float, float, float, bool]:
+    """One Dormand-Prince step of length h in descent from the start rate ``(k1b, k1m)``,
+    projected back onto the active contacts: :func:`rk_step`'s integrator.
+
+    The step's dense output goes to row 0 of ``dense`` (``DENSE_WIDTH`` values, see
+    :func:`dense_angles`); the interpolant ends on the projected end state."""
     k2b, k2m, _, _ = velocity(
         table,
         act,
@@ -241,14 +275,37 @@ def pinned_solve(
 
 
 @njit_no_refcount
+def held_solve(
+    table: FloatArray, act: IntArray, pb: float, pm: float, x0: float, ym: float
+) -> tuple[float, float, float, float, bool]:
+    """:func:`pinned_solve` for one contact with the base held: Newton's method on the gap
+    in phi_M alone at the height ``ym`` (D); the rate there is ``(0, beta / a_M)``.
+    Converged only if the gap reached ``PINNED_GAP`` with ``|a_M|`` at least
+    ``PINNED_CONDITION`` of ``|(a_M, beta)|`` all the way (a rate below 1/PINNED_CONDITION
+    rad per D: no fold near)."""
+    nan = math.nan
+    cb, sb = math.cos(pb), math.sin(pb)
+    for _ in range(PINNED_ITERATIONS):
+        cm, sm = math.cos(pm), math.sin(pm)
+        g, _, _, am, b, _, _, _, _ = eval_pair(table[act[0]], cb, sb, cm, sm, x0, ym)
+        if not (abs(am) >= PINNED_CONDITION * math.sqrt(am * am + b * b) and am != 0.0):
+            return pb, pm, nan, nan, False
+        if abs(g) <= PINNED_GAP:
+            return pb, pm, 0.0, b / am, True
+        pm -= g / am
+    return pb, pm, nan, nan, False
+
+
+@njit_no_refcount
 def pinned_step(
-    table: FloatArray, act: IntArray, pb: float, pm: float, x0: float, ym: float, h: float,
-    sqb: float, sqm: float, mu: float, slip: IntArray, k1b: float, k1m: float,
+    table: FloatArray, act: IntArray, nact: int, pb: float, pm: float, x0: float, ym: float,
+    h: float, sqb: float, sqm: float, mu: float, slip: IntArray, k1b: float, k1m: float,
     dense: FloatArray,
 ) -> tuple[float, float, float, bool]:  # fmt: skip
-    """A step of length ``h`` (D) along a path pinned by two active contacts, solved instead
-    of integrated: Heun's predictor from the start rate ``(k1b, k1m)``, then
-    :func:`pinned_solve` at the step's end height. ``(phi_b, phi_m, error, ok)``, the error
+    """A step of length ``h`` (D) along a path pinned by its active contacts (two, or one
+    with the base held and no friction), solved instead of integrated: Heun's predictor
+    from the start rate ``(k1b, k1m)``, then :func:`pinned_solve` (:func:`held_solve`) at
+    the step's end height. ``(phi_b, phi_m, error, ok)``, the error
     the solve's last correction (round-off). Not ``ok`` (the caller integrates instead)
     when the solve did not converge, or its solution is not the continuation of the start:
     the rate there not finite or turned against the start's, or the solve moved further
@@ -260,12 +317,15 @@ def pinned_step(
     O(h^3) against the interpolant's O(h^4)."""
     eb_ = pb + h * k1b
     em_ = pm + h * k1m
-    vb, vm, _, _ = velocity(table, act, 2, eb_, em_, x0, ym - h, sqb, sqm, mu, slip)
+    vb, vm, _, _ = velocity(table, act, nact, eb_, em_, x0, ym - h, sqb, sqm, mu, slip)
     if not math.isfinite(vb + vm):
         return pb, pm, 0.0, False
     qb = pb + 0.5 * h * (k1b + vb)
     qm = pm + 0.5 * h * (k1m + vm)
-    nb, nm, k7b, k7m, converged = pinned_solve(table, act, qb, qm, x0, ym - h)
+    if nact == 2:
+        nb, nm, k7b, k7m, converged = pinned_solve(table, act, qb, qm, x0, ym - h)
+    else:
+        nb, nm, k7b, k7m, converged = held_solve(table, act, qb, qm, x0, ym - h)
     if not converged:
         return pb, pm, 0.0, False
     moved = max(abs(nb - qb), abs(nm - qm))
@@ -273,7 +333,7 @@ def pinned_step(
         return pb, pm, 0.0, False
     if mu > 0.0:
         # The rate is the solve's; velocity also says where friction cannot share the load.
-        k7b, k7m, _, _ = velocity(table, act, 2, nb, nm, x0, ym - h, sqb, sqm, mu, slip)
+        k7b, k7m, _, _ = velocity(table, act, nact, nb, nm, x0, ym - h, sqb, sqm, mu, slip)
     if not (math.isfinite(k7b + k7m) and k7b * k1b + k7m * k1m > 0.0):
         return pb, pm, 0.0, False
     dense[0, 0], dense[0, 1], dense[0, 2], dense[0, 3] = pb, pm, ym, h

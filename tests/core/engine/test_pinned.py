@@ -1,4 +1,5 @@
-"""integrate.py's two-contact steps: solved on both contacts instead of integrated.
+"""integrate.py's pinned steps: solved on the contacts instead of integrated (two contacts,
+or one with the base held).
 
 The state they start from is taken off a real path (V 0.5/1, a segment held by two
 contacts); the reference is an independent integration of the engine's rate there (the
@@ -17,6 +18,7 @@ import xface_core as xf
 from xface_core._engine.integrate import (
     PINNED_GAP,
     dense_angles,
+    held_solve,
     pinned_solve,
     pinned_step,
     rk_step,
@@ -61,7 +63,7 @@ class TwoContacts:
         dense = np.zeros((2, DENSE_WIDTH))
         k1b, k1m = self.rate(self.pb, self.pm, self.ym)
         nb, nm, _, ok = pinned_step(
-            self.table, self.act, self.pb, self.pm, self.x0, self.ym, h, 1.0, 1.0, 0.0,
+            self.table, self.act, 2, self.pb, self.pm, self.x0, self.ym, h, 1.0, 1.0, 0.0,
             NO_SLIP, k1b, k1m, dense,
         )  # fmt: skip
         return nb, nm, ok, dense
@@ -164,3 +166,46 @@ def test_pinned_solve_returns_the_rate_of_the_contacts(held: TwoContacts) -> Non
     assert converged
     assert (vb, vm) == pytest.approx(held.rate(nb, nm, held.ym - h), rel=1e-12)
     assert math.isfinite(vb + vm)
+
+
+ONE = np.array([0, -1, -1, -1], dtype=np.int64)
+
+
+def _held_step(incline, h: float, mu: float = 0.0) -> tuple[float, float, float, float, bool]:
+    """rk_step down the hand-built incline (conftest): one contact, base held."""
+    k1b, k1m, _, _ = velocity(incline.table, ONE, 1, 0.0, incline.phi_m0, incline.x0,
+                              incline.y0, 0.0, 1.0, mu, NO_SLIP)  # fmt: skip
+    return rk_step(
+        incline.table, ONE, 1, 0.0, incline.phi_m0, incline.x0, incline.y0, h,
+        0.0, 1.0, 0.0, 1.0, mu, NO_SLIP, k1b, k1m, np.zeros((2, DENSE_WIDTH)),
+    )  # fmt: skip
+
+
+@pytest.mark.parametrize("h", [0.05, 0.02, 0.005])
+def test_a_held_step_lands_on_the_closed_form_path(incline, h: float) -> None:
+    nb, nm, eb, em, ok = _held_step(incline, h)
+    assert ok
+    assert nb == 0.0
+    # Solved, not integrated: the closed form's angle to round-off, with no error estimate.
+    assert nm == pytest.approx(incline.phi_m_at(h), abs=1e-13)
+    assert (eb, em) == (0.0, 0.0)
+
+
+def test_a_held_step_with_friction_is_integrated(incline) -> None:
+    # With Coulomb friction a held contact may stick: the integrator takes the step (its
+    # error estimate is not zero).
+    _, _, _, em, ok = _held_step(incline, 0.02, mu=0.1)
+    assert ok
+    assert em > 0.0
+
+
+def test_held_solve_returns_the_rate_of_the_held_contact(incline) -> None:
+    h = 0.01
+    pb, pm, vb, vm, converged = held_solve(
+        incline.table, ONE, 0.0, incline.phi_m0, incline.x0, incline.y0 - h
+    )
+    assert converged
+    assert pb == 0.0
+    wb, wm, _, _ = velocity(incline.table, ONE, 1, pb, pm, incline.x0, incline.y0 - h,
+                            0.0, 1.0, 0.0, NO_SLIP)  # fmt: skip
+    assert (vb, vm) == pytest.approx((wb, wm), rel=1e-12, abs=1e-15)
