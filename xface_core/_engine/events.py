@@ -16,7 +16,7 @@ import math
 from typing import NamedTuple
 
 from .bracket import HI, LO, move_bracket, next_probe, start_bracket
-from .integrate import dense_angles, rk_step
+from .integrate import dense_angles, pinned_step, pins_path, rk_step
 from .motion import slip_margin, velocity
 from .pairs import clipped_gap, eval_pair, pair_at
 from .records import (
@@ -148,7 +148,7 @@ def angles_at(seg: Segment, step: Step, t: float) -> tuple[float, float]:
 
 @njit_no_refcount
 def step_to(seg: Segment, step: Step, t: float) -> tuple[float, float, float, float, bool]:
-    """One integration step of length ``t`` from the trial step's start:
+    """One step of length ``t`` from the trial step's start (:func:`solve_or_integrate`):
     ``(phi_b, phi_m, err_b, err_m, ok)``.
 
     Within a segment the step is a pure function of its start state and ``t``, and the event
@@ -171,11 +171,7 @@ def step_to(seg: Segment, step: Step, t: float) -> tuple[float, float, float, fl
         ):
             return memo[k, 4], memo[k, 5], memo[k, 6], memo[k, 7], memo[k, 8] != 0.0
     k1b, k1m, _, _ = start_velocity(seg, step)
-    nb, nm, eb, em, ok = rk_step(
-        seg.pairs, seg.act, seg.n_active, step.phi_b, step.phi_m, seg.x0, step.y_m, t,
-        seg.sqrt_winv_b, seg.sqrt_winv_m, seg.winv_b, seg.winv_m, seg.mu, seg.slip,
-        k1b, k1m, seg.dense,
-    )  # fmt: skip
+    nb, nm, eb, em, ok = solve_or_integrate(seg, step, t, k1b, k1m)
     k = int(memo[0, 1]) + 1
     memo[k, 0], memo[k, 1], memo[k, 2], memo[k, 3] = t, step.phi_b, step.phi_m, step.y_m
     memo[k, 4], memo[k, 5], memo[k, 6], memo[k, 7] = nb, nm, eb, em
@@ -183,6 +179,28 @@ def step_to(seg: Segment, step: Step, t: float) -> tuple[float, float, float, fl
     memo[0, 0] = min(memo[0, 0] + 1.0, float(slots))
     memo[0, 1] = float(k % slots)
     return nb, nm, eb, em, ok
+
+
+@njit_no_refcount
+def solve_or_integrate(
+    seg: Segment, step: Step, t: float, k1b: float, k1m: float
+) -> tuple[float, float, float, float, bool]:
+    """One step of length ``t`` from the trial step's start, whose rate is ``(k1b, k1m)``:
+    solved on the contacts where they pin the path (:func:`~.integrate.pinned_step`, error
+    0), else, or where that declines, integrated (:func:`~.integrate.rk_step`). Its dense
+    output goes to row 0 of ``seg.dense``."""
+    if pins_path(seg.n_active, seg.winv_b, seg.mu):
+        nb, nm, res, ok = pinned_step(
+            seg.pairs, seg.act, seg.n_active, step.phi_b, step.phi_m, seg.x0, step.y_m, t,
+            seg.sqrt_winv_b, seg.sqrt_winv_m, seg.mu, seg.slip, k1b, k1m, seg.dense,
+        )  # fmt: skip
+        if ok:
+            return nb, nm, res, res, True
+    return rk_step(
+        seg.pairs, seg.act, seg.n_active, step.phi_b, step.phi_m, seg.x0, step.y_m, t,
+        seg.sqrt_winv_b, seg.sqrt_winv_m, seg.winv_b, seg.winv_m, seg.mu, seg.slip,
+        k1b, k1m, seg.dense,
+    )  # fmt: skip
 
 
 #: Row 0 of the step memo: slots filled and the next slot (columns 0, 1), then one

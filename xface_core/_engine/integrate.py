@@ -105,51 +105,9 @@ def rk_step(
     k1m: float,
     dense: FloatArray,
 ) -> tuple[float, float, float, float, bool]:
-    """One step of length h in descent from the start rate ``(k1b, k1m)`` (rad per D:
-    :func:`~.motion.velocity` there, which every step from one start shares, and the event
-    searches take many); returns (pb, pm, err_b, err_m, ok).
-
-    Solved on the contacts where they pin the path (:func:`pinned_step`: two contacts, or
-    one with the base held, frictionless), else integrated (:func:`dormand_prince_step`).
-    The step's dense output goes to row 0 of ``dense`` (``DENSE_WIDTH`` values, see
-    :func:`dense_angles`); the interpolant ends on the step's end state."""
-    if nact == 2 or (nact == 1 and winv_b == 0.0 and mu == 0.0):
-        # Two contacts pin both angles at every height, one contact the moving part's
-        # angle while the base is held: solve them there (exact to round-off) unless the
-        # solve is ill-conditioned or unsure (then integrate).
-        nb, nm, res, ok = pinned_step(
-            table, act, nact, pb, pm, x0, ym, h, sqb, sqm, mu, slip, k1b, k1m, dense
-        )
-        if ok:
-            return nb, nm, res, res, True
-    return dormand_prince_step(
-        table, act, nact, pb, pm, x0, ym, h, sqb, sqm, winv_b, winv_m, mu, slip, k1b, k1m,
-        dense,
-    )  # fmt: skip
-
-
-@njit_no_refcount
-def dormand_prince_step(
-    table: FloatArray,
-    act: IntArray,
-    nact: int,
-    pb: float,
-    pm: float,
-    x0: float,
-    ym: float,
-    h: float,
-    sqb: float,
-    sqm: float,
-    winv_b: float,
-    winv_m: float,
-    mu: float,
-    slip: IntArray,
-    k1b: float,
-    k1m: float,
-    dense: FloatArray,
-) -> tuple[float, float, float, float, bool]:
-    """One Dormand-Prince step of length h in descent from the start rate ``(k1b, k1m)``,
-    projected back onto the active contacts: :func:`rk_step`'s integrator.
+    """One Dormand-Prince step of length h in descent from the start rate ``(k1b, k1m)``
+    (rad per D: :func:`~.motion.velocity` there, which every step from one start shares,
+    and the event searches take many); returns (pb, pm, err_b, err_m, ok).
 
     The step's dense output goes to row 0 of ``dense`` (``DENSE_WIDTH`` values, see
     :func:`dense_angles`); the interpolant ends on the projected end state."""
@@ -237,6 +195,15 @@ def dormand_prince_step(
     _dense_coefficients(dense, 5, pb, nb, h, k1b, k3b, k4b, k5b, k6b, k7b)
     _dense_coefficients(dense, 9, pm, nm, h, k1m, k3m, k4m, k5m, k6m, k7m)
     return nb, nm, eb, em, ok
+
+
+@njit_no_refcount
+def pins_path(nact: int, winv_b: float, mu: float) -> bool:
+    """Do the active contacts pin the path, so that a step is solved on them
+    (:func:`pinned_step`) instead of integrated (:func:`rk_step`)? Two contacts fix both
+    angles at every height; one fixes the moving part's while the base is held
+    (``winv_b`` 0), unless friction may make it stick."""
+    return nact == 2 or (nact == 1 and winv_b == 0.0 and mu == 0.0)
 
 
 #: A two-contact step is solved, not integrated, only where the contacts' gap gradients

@@ -19,9 +19,9 @@ from xface_core._engine.events import (
     keep_trial_dense,
     locate,
     segment_velocity,
+    solve_or_integrate,
     step_to,
 )
-from xface_core._engine.integrate import rk_step
 from xface_core._engine.pairs import pair_at
 from xface_core._engine.records import (
     DENSE_WIDTH,
@@ -130,13 +130,9 @@ def test_earlier_keeps_the_first_found_on_a_tie() -> None:
 
 
 def _fresh_step(seg, step, t: float) -> tuple[float, float, float, float, bool]:
-    """The step without the memo: a plain step from the start (rk_step)."""
+    """The step without the memo: solved or integrated afresh from the start."""
     k1b, k1m, _, _ = segment_velocity(seg, step.phi_b, step.phi_m, step.y_m)
-    return rk_step(
-        seg.pairs, seg.act, seg.n_active, step.phi_b, step.phi_m, seg.x0, step.y_m, t,
-        seg.sqrt_winv_b, seg.sqrt_winv_m, seg.winv_b, seg.winv_m, seg.mu, seg.slip, k1b, k1m,
-        np.zeros((2, DENSE_WIDTH)),
-    )  # fmt: skip
+    return solve_or_integrate(seg._replace(dense=np.zeros((2, DENSE_WIDTH))), step, t, k1b, k1m)
 
 
 def test_remembered_steps_are_the_steps_bit_for_bit(incline) -> None:

@@ -1,12 +1,11 @@
-"""integrate.py: one Dormand-Prince step against the closed-form path, the projection
-(the steps solved on the contacts instead: test_pinned.py)."""
+"""integrate.py: one Dormand-Prince step against the closed-form path, the projection."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from xface_core._engine.integrate import dense_angles, dormand_prince_step, project
+from xface_core._engine.integrate import dense_angles, project, rk_step
 from xface_core._engine.motion import velocity
 from xface_core._engine.pairs import pair_at
 from xface_core._engine.records import DENSE_WIDTH, FREE
@@ -22,7 +21,7 @@ def _dense_step(incline, h: float) -> tuple[float, float, np.ndarray]:
     dense = np.zeros((2, DENSE_WIDTH))
     k1b, k1m, _, _ = velocity(incline.table, ONE, 1, 0.0, incline.phi_m0, incline.x0,
                               incline.y0, 0.0, 1.0, 0.0, NO_SLIP)  # fmt: skip
-    nb, nm, _, _, ok = dormand_prince_step(
+    nb, nm, _, _, ok = rk_step(
         incline.table, ONE, 1, 0.0, incline.phi_m0, incline.x0, incline.y0, h,
         0.0, 1.0, 0.0, 1.0, 0.0, NO_SLIP, k1b, k1m, dense,
     )  # fmt: skip
@@ -37,7 +36,7 @@ def _step(incline, h: float, *, projected: bool = True) -> tuple[float, float, f
     w = 1.0 if projected else 0.0
     k1b, k1m, _, _ = velocity(incline.table, ONE, 1, 0.0, incline.phi_m0, incline.x0,
                               incline.y0, 0.0, 1.0, 0.0, NO_SLIP)  # fmt: skip
-    return dormand_prince_step(
+    return rk_step(
         incline.table, ONE, 1, 0.0, incline.phi_m0, incline.x0, incline.y0, h,
         0.0, 1.0, 0.0, w, 0.0, NO_SLIP, k1b, k1m, np.zeros((2, DENSE_WIDTH)),
     )  # fmt: skip

@@ -15,17 +15,18 @@ import numpy as np
 import pytest
 
 import xface_core as xf
+from xface_core._engine.events import Segment, Step, solve_or_integrate
 from xface_core._engine.integrate import (
     PINNED_GAP,
     dense_angles,
     held_solve,
     pinned_solve,
     pinned_step,
-    rk_step,
+    pins_path,
 )
 from xface_core._engine.motion import velocity
 from xface_core._engine.pairs import pair_at
-from xface_core._engine.records import DENSE_WIDTH, FREE
+from xface_core._engine.records import DENSE_WIDTH, FREE, STEP_MEMO_SLOTS
 from xface_core.contact import pair_table
 
 NO_SLIP = np.array([FREE, FREE], dtype=np.int64)
@@ -67,6 +68,13 @@ class TwoContacts:
             NO_SLIP, k1b, k1m, dense,
         )  # fmt: skip
         return nb, nm, ok, dense
+
+    def segment(self) -> Segment:
+        """The segment of the two contacts, frictionless, both parts free."""
+        return Segment(
+            self.table, self.act, 2, 0.0, NO_SLIP.copy(), self.x0, -math.inf, 1.0, 1.0, 1.0,
+            1.0, np.zeros((STEP_MEMO_SLOTS + 1, 18)), np.zeros((2, DENSE_WIDTH)),
+        )  # fmt: skip
 
     def integrated(self, h: float, n: int = 1000) -> tuple[float, float]:
         """The angles a descent ``h`` on, by classical Runge-Kutta in ``n`` steps on the
@@ -132,16 +140,21 @@ def test_the_pinned_dense_output_is_near_the_path_inside_the_step(held: TwoConta
     assert err <= max(dense[0, 13], dense[0, 14])
 
 
-def test_rk_step_takes_the_pinned_step_for_two_contacts(held: TwoContacts) -> None:
+def test_a_two_contact_segment_steps_by_the_pinned_step(held: TwoContacts) -> None:
     h = 0.002
     nb, nm, _, _ = held.step(h)
     k1b, k1m = held.rate(held.pb, held.pm, held.ym)
-    rb, rm, eb, em, ok = rk_step(
-        held.table, held.act, 2, held.pb, held.pm, held.x0, held.ym, h, 1.0, 1.0, 1.0, 1.0,
-        0.0, NO_SLIP, k1b, k1m, np.zeros((2, DENSE_WIDTH)),
-    )  # fmt: skip
-    assert ok
-    assert (rb, rm, eb, em) == (nb, nm, 0.0, 0.0)
+    step = Step(held.pb, held.pm, held.ym, h)
+    assert solve_or_integrate(held.segment(), step, h, k1b, k1m) == (nb, nm, 0.0, 0.0, True)
+
+
+def test_which_contacts_pin_the_path() -> None:
+    assert pins_path(2, 1.0, 0.0)
+    assert pins_path(2, 1.0, 0.3)  # friction shares the load, the path stays pinned
+    assert pins_path(1, 0.0, 0.0)  # the base held
+    assert not pins_path(1, 0.0, 0.1)  # a held contact with friction may stick
+    assert not pins_path(1, 1.0, 0.0)  # both parts free: one contact leaves a freedom
+    assert not pins_path(0, 0.0, 0.0)
 
 
 def test_one_contact_twice_is_not_solved(held: TwoContacts) -> None:
@@ -172,13 +185,11 @@ ONE = np.array([0, -1, -1, -1], dtype=np.int64)
 
 
 def _held_step(incline, h: float, mu: float = 0.0) -> tuple[float, float, float, float, bool]:
-    """rk_step down the hand-built incline (conftest): one contact, base held."""
+    """A step down the hand-built incline (conftest): one contact, base held."""
+    seg = incline.segment()._replace(mu=mu)
     k1b, k1m, _, _ = velocity(incline.table, ONE, 1, 0.0, incline.phi_m0, incline.x0,
                               incline.y0, 0.0, 1.0, mu, NO_SLIP)  # fmt: skip
-    return rk_step(
-        incline.table, ONE, 1, 0.0, incline.phi_m0, incline.x0, incline.y0, h,
-        0.0, 1.0, 0.0, 1.0, mu, NO_SLIP, k1b, k1m, np.zeros((2, DENSE_WIDTH)),
-    )  # fmt: skip
+    return solve_or_integrate(seg, incline.step(h), h, k1b, k1m)
 
 
 @pytest.mark.parametrize("h", [0.05, 0.02, 0.005])
