@@ -1,11 +1,11 @@
 """The compiled docking engine (private): numba kernels cut along the solver's stages.
 
 Modules, from the inside out: ``records`` (model, options, run state, work arrays, codes),
-``pairs`` (vertex-edge geometry), ``motion`` (QP, corners, friction), ``integrate`` (the
-Dormand-Prince step), ``bracket``, ``events`` and ``scan`` (root bracketing, event
-functions, location, the earliest event), ``folds``, ``overlap``, ``ends`` (samples and
-ends), ``interval`` and ``segment`` (the stages), ``simulate`` (the stage loop). The typed
-API is :mod:`xface_core.runner`.
+``pairs`` (vertex-edge geometry), ``motion`` (QP, corners, friction), ``integrate`` (a step
+solved on the contacts or a Dormand-Prince step), ``bracket``, ``events`` and ``scan`` (root
+bracketing, event functions, location, the earliest event), ``folds``, ``overlap``, ``ends``
+(samples and ends), ``interval`` and ``segment`` (the stages), ``simulate`` (the stage
+loop). The typed API is :mod:`xface_core.runner`.
 """
 
 from __future__ import annotations

@@ -1,5 +1,7 @@
-"""One Dormand-Prince 5(4) step along the path with the active set fixed, projected back
-onto the active contacts (the projection's correction counts as step error)."""
+"""One step along the path with the active set fixed: solved on the contacts where they pin
+the path (two contacts, or one with the base held: :func:`pinned_step`, exact to round-off),
+else a Dormand-Prince 5(4) step (:func:`rk_step`) projected back onto the active contacts
+(the projection's correction counts as step error)."""
 
 from __future__ import annotations
 
