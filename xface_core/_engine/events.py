@@ -190,12 +190,12 @@ def solve_or_integrate(
     0), else, or where that declines, integrated (:func:`~.integrate.rk_step`). Its dense
     output goes to row 0 of ``seg.dense``."""
     if pins_path(seg.n_active, seg.winv_b, seg.mu):
-        nb, nm, res, ok = pinned_step(
+        nb, nm, ok = pinned_step(
             seg.pairs, seg.act, seg.n_active, step.phi_b, step.phi_m, seg.x0, step.y_m, t,
             seg.sqrt_winv_b, seg.sqrt_winv_m, seg.mu, seg.slip, k1b, k1m, seg.dense,
         )  # fmt: skip
         if ok:
-            return nb, nm, res, res, True
+            return nb, nm, 0.0, 0.0, True
     return rk_step(
         seg.pairs, seg.act, seg.n_active, step.phi_b, step.phi_m, seg.x0, step.y_m, t,
         seg.sqrt_winv_b, seg.sqrt_winv_m, seg.winv_b, seg.winv_m, seg.mu, seg.slip,

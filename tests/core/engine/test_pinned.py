@@ -63,7 +63,7 @@ class TwoContacts:
     def step(self, h: float) -> tuple[float, float, bool, np.ndarray]:
         dense = np.zeros((2, DENSE_WIDTH))
         k1b, k1m = self.rate(self.pb, self.pm, self.ym)
-        nb, nm, _, ok = pinned_step(
+        nb, nm, ok = pinned_step(
             self.table, self.act, 2, self.pb, self.pm, self.x0, self.ym, h, 1.0, 1.0, 0.0,
             NO_SLIP, k1b, k1m, dense,
         )  # fmt: skip
