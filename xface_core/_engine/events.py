@@ -101,6 +101,8 @@ def clear_step_memo(memo: FloatArray) -> None:
     memo[0, 1] = 0.0  # the slot written next
     memo[0, START_RATE + 7] = 0.0  # no rates remembered
     memo[0, END_RATE + 7] = 0.0
+    for k in range(QUARTER_SLOTS):
+        memo[0, QUARTER_STATE + QUARTER_WIDTH * k + 9] = 0.0
 
 
 @njit_no_refcount
@@ -208,6 +210,47 @@ def solve_or_integrate(
 #: the state (phi_B, phi_M, y_M), the rate and forces (4), and whether they are set.
 START_RATE = 2
 END_RATE = 10
+#: Then the states at 1/4, 2/4 and 3/4 of the last trial step whose gap bounds were taken
+#: from its quarters (:func:`quarter_state`): at these columns, each state (phi_B, phi_M,
+#: y_M), its rate (2), cos and sin of phi_B and phi_M (4), and whether it is set.
+QUARTER_STATE = 18
+QUARTER_WIDTH = 10
+QUARTER_SLOTS = 3
+
+
+@njit_no_refcount
+def _remembers(memo: FloatArray, col: int, flag: int, pb: float, pm: float, ym: float) -> bool:
+    """Does row 0 of the step memo hold the state ``(pb, pm, ym)`` at ``col`` (set, by the
+    value at ``flag``)?"""
+    return bool(
+        memo[0, flag] != 0.0
+        and memo[0, col] == pb
+        and memo[0, col + 1] == pm
+        and memo[0, col + 2] == ym
+    )
+
+
+@njit_no_refcount
+def quarter_state(
+    seg: Segment, k: int, pb: float, pm: float, ym: float
+) -> tuple[float, float, float, float, float, float]:
+    """cos and sin of phi_B and phi_M and the rate (rad/D) at the ``k``-th quarter state of a
+    trial step (``k`` in 1..QUARTER_SLOTS), remembered for the last state asked there: the
+    gap bounds of every pair screened in the step (:func:`~.scan._gap_bounds`) ask for the
+    same three states, and each took a motion solve and two ``sincos`` per pair."""
+    memo = seg.step_memo
+    col = QUARTER_STATE + QUARTER_WIDTH * (k - 1)
+    if not _remembers(memo, col, col + 9, pb, pm, ym):
+        vb, vm, _, _ = segment_velocity(seg, pb, pm, ym)
+        memo[0, col], memo[0, col + 1], memo[0, col + 2] = pb, pm, ym
+        memo[0, col + 3], memo[0, col + 4] = vb, vm
+        memo[0, col + 5], memo[0, col + 6] = math.cos(pb), math.sin(pb)
+        memo[0, col + 7], memo[0, col + 8] = math.cos(pm), math.sin(pm)
+        memo[0, col + 9] = 1.0
+    return (
+        memo[0, col + 5], memo[0, col + 6], memo[0, col + 7], memo[0, col + 8],
+        memo[0, col + 3], memo[0, col + 4],
+    )  # fmt: skip
 
 
 @njit_no_refcount
@@ -217,12 +260,7 @@ def _remembered_velocity(
     """:func:`segment_velocity` at a state, remembered at ``col`` of the step memo's row 0
     for the last state asked there."""
     memo = seg.step_memo
-    if not (
-        memo[0, col + 7] != 0.0
-        and memo[0, col] == pb
-        and memo[0, col + 1] == pm
-        and memo[0, col + 2] == ym
-    ):
+    if not _remembers(memo, col, col + 7, pb, pm, ym):
         vb, vm, l1, l2 = segment_velocity(seg, pb, pm, ym)
         memo[0, col], memo[0, col + 1], memo[0, col + 2] = pb, pm, ym
         memo[0, col + 3], memo[0, col + 4], memo[0, col + 5], memo[0, col + 6] = vb, vm, l1, l2

@@ -139,6 +139,10 @@ FOLD_REACH = 1e-3  # D: solve_fold accepts a fold only this close to its start h
 #: the event scan asks for the same state again and again (the trial step's end in every
 #: root search, a located event's state in the contact checks and in the advance to it).
 STEP_MEMO_SLOTS = 16
+#: Columns of the step memo: a remembered step takes 9 (``events.step_to``), row 0 the memo's
+#: bookkeeping and the remembered states (``events.START_RATE``, ``END_RATE``,
+#: ``QUARTER_STATE``).
+STEP_MEMO_WIDTH = 48
 #: D: a pair is left out of the contact scans only while its vertex stays this much farther
 #: from its edge than it can move (above every touching and corner tolerance).
 SLEEP_SLACK = 1e-6
@@ -266,7 +270,8 @@ class Work(NamedTuple):
     """(FINE_SAMPLES, 6) scratch: phi_B, phi_M and their cos and sin (cos phi_B, sin phi_B,
     cos phi_M, sin phi_M) at the samples inside a trial step."""
     step_memo: FloatArray
-    """(STEP_MEMO_SLOTS + 1, 18) steps integrated in this segment (:func:`~.events.step_to`)."""
+    """(STEP_MEMO_SLOTS + 1, STEP_MEMO_WIDTH) steps integrated in this segment
+    (:func:`~.events.step_to`), and states whose rates were asked for."""
     sleep: FloatArray
     """(n_pairs, 3) per pair, within a segment: how far (D) its vertex and edge must still
     move relative to each other before it can come into reach (a contact, or two corners
@@ -307,7 +312,7 @@ def new_work(model: Model, opts: Options) -> Work:
         np.empty(2, dtype=np.int64),
         np.empty((4, 2)),
         np.empty((FINE_SAMPLES, 6)),
-        np.empty((STEP_MEMO_SLOTS + 1, 18)),
+        np.empty((STEP_MEMO_SLOTS + 1, STEP_MEMO_WIDTH)),
         np.empty((n, 3)),
         np.empty((2, DENSE_WIDTH)),
         np.empty((3, n + 2), dtype=np.int64),

@@ -18,7 +18,7 @@ import pytest
 import xface_core as xf
 from xface_core._engine.events import Segment, Step
 from xface_core._engine.pairs import fill_extents, pair_at
-from xface_core._engine.records import DENSE_WIDTH, FREE, STEP_MEMO_SLOTS
+from xface_core._engine.records import DENSE_WIDTH, FREE, STEP_MEMO_SLOTS, STEP_MEMO_WIDTH
 from xface_core.contact import pair_table
 
 #: Columns of the engine's pair table; hand-built rows fill the first ten (kind, vertex, edge,
@@ -75,7 +75,7 @@ class Incline:
         slip = np.full(2, FREE, dtype=np.int64)
         return Segment(
             self.table, act, n_active, 0.0, slip, self.x0, y_floor,
-            math.sqrt(winv_b), 1.0, winv_b, 1.0, np.zeros((STEP_MEMO_SLOTS + 1, 18)),
+            math.sqrt(winv_b), 1.0, winv_b, 1.0, np.zeros((STEP_MEMO_SLOTS + 1, STEP_MEMO_WIDTH)),
             np.zeros((2, DENSE_WIDTH)),
         )  # fmt: skip
 

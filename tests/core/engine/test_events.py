@@ -9,6 +9,8 @@ import pytest
 
 from xface_core._engine.events import (
     NO_EVENT,
+    QUARTER_SLOTS,
+    QUARTER_STATE,
     START_RATE,
     Event,
     angles_at,
@@ -18,6 +20,7 @@ from xface_core._engine.events import (
     has_dense,
     keep_trial_dense,
     locate,
+    quarter_state,
     segment_velocity,
     solve_or_integrate,
     step_to,
@@ -156,6 +159,39 @@ def test_a_new_start_or_segment_is_not_answered_from_the_memo(incline) -> None:
     assert seg.step_memo[0, 0] == 0.0
     assert seg.step_memo[0, START_RATE + 7] == 0.0  # the start's rate is forgotten too
     assert step_to(seg, step, 0.01) == first
+
+
+def _fresh_quarter(seg, pb: float, pm: float, ym: float) -> tuple[float, ...]:
+    vb, vm, _, _ = segment_velocity(seg, pb, pm, ym)
+    return (math.cos(pb), math.sin(pb), math.cos(pm), math.sin(pm), vb, vm)
+
+
+def test_a_quarter_state_is_the_state_computed_afresh_bit_for_bit(incline) -> None:
+    seg = incline.segment()
+    step = incline.step(0.02)
+    for _round in range(2):  # the second round is answered from the memo
+        for k in range(1, QUARTER_SLOTS + 1):
+            pb, pm = angles_at(seg, step, 0.005 * k)
+            ym = step.y_m - 0.005 * k
+            assert quarter_state(seg, k, pb, pm, ym) == _fresh_quarter(seg, pb, pm, ym)
+    # Another state at a slot replaces the one remembered there.
+    pb, pm = step.phi_b + 1e-3, step.phi_m - 2e-3
+    assert quarter_state(seg, 2, pb, pm, step.y_m) == _fresh_quarter(seg, pb, pm, step.y_m)
+
+
+def test_a_new_segment_forgets_the_quarter_states(incline) -> None:
+    # The rate depends on the segment's contacts: a state remembered in one segment must
+    # not answer in the next, even at the same angles and height.
+    seg = incline.segment()
+    step = incline.step(0.02)
+    pb, pm = angles_at(seg, step, 0.005)
+    ym = step.y_m - 0.005
+    quarter_state(seg, 1, pb, pm, ym)
+    # Scribble over the remembered rate: only a state computed afresh gives it back.
+    seg.step_memo[0, QUARTER_STATE + 3] = 123.0
+    assert quarter_state(seg, 1, pb, pm, ym)[4] == 123.0  # answered from the memo
+    clear_step_memo(seg.step_memo)
+    assert quarter_state(seg, 1, pb, pm, ym) == _fresh_quarter(seg, pb, pm, ym)
 
 
 def test_a_gap_zero_to_round_off_at_both_ends_is_located_at_the_start(incline) -> None:

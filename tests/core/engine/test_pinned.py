@@ -26,7 +26,7 @@ from xface_core._engine.integrate import (
 )
 from xface_core._engine.motion import velocity
 from xface_core._engine.pairs import pair_at
-from xface_core._engine.records import DENSE_WIDTH, FREE, STEP_MEMO_SLOTS
+from xface_core._engine.records import DENSE_WIDTH, FREE, STEP_MEMO_SLOTS, STEP_MEMO_WIDTH
 from xface_core.contact import pair_table
 
 NO_SLIP = np.array([FREE, FREE], dtype=np.int64)
@@ -73,7 +73,7 @@ class TwoContacts:
         """The segment of the two contacts, frictionless, both parts free."""
         return Segment(
             self.table, self.act, 2, 0.0, NO_SLIP.copy(), self.x0, -math.inf, 1.0, 1.0, 1.0,
-            1.0, np.zeros((STEP_MEMO_SLOTS + 1, 18)), np.zeros((2, DENSE_WIDTH)),
+            1.0, np.zeros((STEP_MEMO_SLOTS + 1, STEP_MEMO_WIDTH)), np.zeros((2, DENSE_WIDTH)),
         )  # fmt: skip
 
     def integrated(self, h: float, n: int = 1000) -> tuple[float, float]:

@@ -17,12 +17,14 @@ from xface_core._engine.records import (
     FINE_SAMPLES,
     FREE,
     STEP_MEMO_SLOTS,
+    STEP_MEMO_WIDTH,
     Work,
     make_options,
 )
 from xface_core._engine.scan import (
     _far_behind,
     _far_outside,
+    _far_outside_or_behind,
     _gap_bounds,
     _reach_budget,
     _turn_rates,
@@ -46,7 +48,8 @@ def _work(table: np.ndarray, pb: float, pm: float, x0: float, ym: float) -> Work
         ev, ev[:, 0].copy(), ev[:, 1].copy(), np.zeros(n), np.zeros(n), thr,
         np.zeros(16, dtype=np.int64), np.full(8, -1, dtype=np.int64),
         np.array([0, -1, -1, -1], dtype=np.int64), np.zeros(2, dtype=np.int64),
-        np.zeros((4, 2)), np.zeros((FINE_SAMPLES, 6)), np.zeros((STEP_MEMO_SLOTS + 1, 18)),
+        np.zeros((4, 2)), np.zeros((FINE_SAMPLES, 6)),
+        np.zeros((STEP_MEMO_SLOTS + 1, STEP_MEMO_WIDTH)),
         np.column_stack([np.zeros(n), np.full(n, -1.0), np.zeros(n)]), np.zeros((2, DENSE_WIDTH)),
         np.empty((3, n + 2), dtype=np.int64), np.full(4, -1, dtype=np.int64),
         np.empty((0, 4)), np.empty((0, 4)),
@@ -113,10 +116,26 @@ def _segments_of_a_dock(design, x0: float, theta0: float):
         seg = Segment(
             model.pairs, act, len(held), 0.0, np.full(2, FREE, dtype=np.int64), x0, -np.inf,
             opts.sqrt_winv_b, opts.sqrt_winv_m, opts.winv_b, opts.winv_m,
-            np.zeros((STEP_MEMO_SLOTS + 1, 18)), np.zeros((2, DENSE_WIDTH)),
+            np.zeros((STEP_MEMO_SLOTS + 1, STEP_MEMO_WIDTH)), np.zeros((2, DENSE_WIDTH)),
         )  # fmt: skip
         y = y0 - p.path.descent[k] / design.width
         yield seg, Step(float(p.path.phi_b[k]), float(p.path.phi_m[k]), float(y), 0.0)
+
+
+def _screened_steps(design, x0: float, theta0: float):
+    """(segment, trial step, turn-rate bound, cos and sin at both ends) for steps of 0.002,
+    0.01 and 0.05 D from every path sample of a dock with contacts held."""
+    for seg, start in _segments_of_a_dock(design, x0, theta0):
+        for h in (0.002, 0.01, 0.05):
+            step = start._replace(h=h)
+            nb, nm, _, _, ok = step_to(seg, step, h)
+            if not ok:
+                continue
+            ends = (
+                (np.cos(step.phi_b), np.sin(step.phi_b), np.cos(step.phi_m), np.sin(step.phi_m)),
+                (np.cos(nb), np.sin(nb), np.cos(nm), np.sin(nm)),
+            )
+            yield seg, step, _turn_rates(seg, step, nb, nm), ends
 
 
 @pytest.mark.parametrize(
@@ -133,33 +152,42 @@ def test_the_gap_never_rises_above_its_ceiling_in_a_step(design, x0, theta0) -> 
     # the plain gap at 64 states inside the step stays under it, from the ends and from
     # the quarters alike.
     checked = 0
-    for seg, start in _segments_of_a_dock(design, x0, theta0):
-        for h in (0.002, 0.01, 0.05):
-            step = start._replace(h=h)
-            nb, nm, _, _, ok = step_to(seg, step, h)
-            if not ok:
-                continue
-            rates = _turn_rates(seg, step, nb, nm)
-            ends = (
-                (np.cos(step.phi_b), np.sin(step.phi_b), np.cos(step.phi_m), np.sin(step.phi_m)),
-                (np.cos(nb), np.sin(nb), np.cos(nm), np.sin(nm)),
-            )
-            for i in range(seg.pairs.shape[0]):
-                top, low = -np.inf, np.inf
-                for t in np.linspace(0.0, h, 64):
-                    pb, pm, _, _, _ = step_to(seg, step, t)
-                    g = pair_at(seg.pairs, i, pb, pm, seg.x0, step.y_m - t)[0]
-                    top, low = max(top, g), min(low, g)
-                for pieces in (1, 4):
-                    floor, ceiling, _, _ = _gap_bounds(seg, step, i, rates, pieces, *ends)
-                    assert floor <= low
-                    assert top <= ceiling
-                if _far_behind(seg, step, i, 0.0, rates, *ends):
-                    assert top < -CORNER_REACH
-                if _far_outside(seg, step, i, 0.0, rates, *ends):
-                    assert low > 0.0
-                checked += 1
+    for seg, step, rates, ends in _screened_steps(design, x0, theta0):
+        for i in range(seg.pairs.shape[0]):
+            top, low = -np.inf, np.inf
+            for t in np.linspace(0.0, step.h, 64):
+                pb, pm, _, _, _ = step_to(seg, step, t)
+                g = pair_at(seg.pairs, i, pb, pm, seg.x0, step.y_m - t)[0]
+                top, low = max(top, g), min(low, g)
+            for pieces in (1, 4):
+                floor, ceiling, _, _ = _gap_bounds(seg, step, i, rates, pieces, *ends)
+                assert floor <= low
+                assert top <= ceiling
+            if _far_behind(seg, step, i, 0.0, rates, *ends):
+                assert top < -CORNER_REACH
+            if _far_outside(seg, step, i, 0.0, rates, *ends):
+                assert low > 0.0
+            checked += 1
     assert checked > 100
+
+
+@pytest.mark.parametrize(
+    ("design", "x0", "theta0"),
+    [(xf.s_face(0.5, 1.0), 0.1, -0.2), (xf.v_face(0.5, 1.0), 0.2, 0.3)],
+)
+def test_the_shared_screen_decides_as_the_two_screens_do(design, x0, theta0) -> None:
+    # _contacts_inside_step takes one bound over the step's ends for both screens; it must
+    # skip exactly the pairs that one of the two would skip, at thresholds either side.
+    decided = set()
+    for seg, step, rates, ends in _screened_steps(design, x0, theta0):
+        for i in range(seg.pairs.shape[0]):
+            for thr in (-0.1, -1e-9, 0.0, 0.02):
+                outside = _far_outside(seg, step, i, thr, rates, *ends)
+                behind = _far_behind(seg, step, i, thr, rates, *ends)
+                shared = _far_outside_or_behind(seg, step, i, thr, rates, *ends)
+                assert shared == (outside or behind)
+                decided.add((outside, behind))
+    assert {(True, False), (False, True), (False, False)} <= decided
 
 
 @pytest.mark.parametrize("seed", range(5))
