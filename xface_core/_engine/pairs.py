@@ -315,6 +315,14 @@ def corner_motion_admissible(
 
 
 @njit_no_refcount
+def corners_can_cross(row: FloatArray) -> bool:
+    """Are the pair's vertex V and the start corner K of its edge both convex? Only then can
+    they cross like an X (:func:`wedges_cross`): at a reflex K or V a vertex near it is
+    inside by its own gaps."""
+    return bool(row[14] >= 0.5 and row[18] * row[17] - row[19] * row[16] < 0.0)
+
+
+@njit_no_refcount
 def wedges_cross(row: FloatArray, cb: float, sb: float, cm: float, sm: float, x0: float,
                  y_m: float, margin: float, rays: FloatArray) -> bool:  # fmt: skip
     """Do the parts overlap near the pair's vertex V and the start corner K of its edge,
@@ -326,8 +334,8 @@ def wedges_cross(row: FloatArray, cb: float, sb: float, cm: float, sm: float, x0
     K's edge (the wedges stand for the parts there). Every (vertex, corner) meeting is
     some pair's start corner, so the start corners of all pairs cover them all.
     """
-    if row[14] < 0.5 or row[18] * row[17] - row[19] * row[16] >= 0.0:
-        return False  # K or V reflex: a vertex near it is inside by its own gaps
+    if not corners_can_cross(row):
+        return False
     moving_v = row[0] == 0.0
     cv, sv, ck, sk = (cm, sm, cb, sb) if moving_v else (cb, sb, cm, sm)
     vx, vy = _to_world(row, row[1], row[2], moving_v, cv, sv, x0, y_m, True)

@@ -190,22 +190,45 @@ def test_the_shared_screen_decides_as_the_two_screens_do(design, x0, theta0) -> 
     assert {(True, False), (False, True), (False, False)} <= decided
 
 
+def _budget_row(length: float, crossable: bool) -> np.ndarray:
+    """A pair row with an edge of ``length``; its start corner K and its vertex V both convex
+    (they can cross like an X) or K reflex."""
+    row = np.zeros(22)
+    row[21] = length  # COL_EDGE_LENGTH
+    row[14] = 1.0 if crossable else 0.0  # K convex
+    row[16:20] = (1.0, 0.0, 0.0, 1.0)  # V's two edge directions: a convex vertex
+    return row
+
+
+def _distances(g: float, u: float, length: float) -> tuple[float, float]:
+    """Distance from the edge extended by a quarter at each end (where a line crossing is
+    searched) and from the start corner's half-edge disc (two corners crossing)."""
+    t = np.linspace(-0.25, 1.25, 301)
+    to_edge = np.hypot((u - t) * length, g).min()
+    to_corner = max(np.hypot(u * length, g) - 0.51 * length, 0.0)
+    return to_edge, to_corner
+
+
 @pytest.mark.parametrize("seed", range(5))
 def test_the_reach_budget_is_below_every_distance_at_which_a_pair_is_looked_at(seed) -> None:
-    # Looked at: within reach of its edge extended by a quarter at each end (where a line
-    # crossing is searched) or within half an edge of its start corner (two corners
-    # crossing). The budget must be below both distances, so that a pair moving less than
-    # its budget cannot get there unseen.
+    # A pair whose corners can cross is looked at near its edge and near its start corner;
+    # the budget must be below both distances, so that a pair moving less than its budget
+    # cannot get there unseen. One whose corners cannot cross is looked at near its edge.
     rng = np.random.default_rng(seed)
-    row = np.zeros(22)
     length = rng.uniform(0.05, 2.0)
-    row[21] = length  # COL_EDGE_LENGTH
+    crossable, reflex = _budget_row(length, True), _budget_row(length, False)
     for g, u in zip(rng.normal(0.0, 1.0, 200), rng.normal(0.5, 1.5, 200), strict=True):
-        # Points of the extended edge and the corner's half-edge disc, in (along, normal).
-        t = np.linspace(-0.25, 1.25, 301)
-        to_edge = np.hypot((u - t) * length, g).min()
-        to_corner = np.hypot(u * length, g) - 0.51 * length
-        assert _reach_budget(row, g, u) <= min(to_edge, max(to_corner, 0.0)) + 1e-12
+        to_edge, to_corner = _distances(g, u, length)
+        assert _reach_budget(crossable, g, u) <= min(to_edge, to_corner) + 1e-12
+        assert _reach_budget(reflex, g, u) <= to_edge + 1e-12
+
+
+def test_a_reflex_corner_does_not_keep_a_pair_near_it_in_the_scans() -> None:
+    # Vertex half an edge beside the edge's line at its start corner: in the corner's disc,
+    # but 0.3 edges from the edge itself. Only a pair whose corners can cross is kept there.
+    length, g, u = 1.0, 0.3, -0.1
+    assert _reach_budget(_budget_row(length, True), g, u) < 0.0
+    assert _reach_budget(_budget_row(length, False), g, u) == pytest.approx(0.3 - 1e-6)
 
 
 def test_a_pair_flat_at_the_event_does_not_come_before_it() -> None:
