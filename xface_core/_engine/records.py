@@ -290,6 +290,10 @@ class Work(NamedTuple):
     """(base edges, 4) scratch: the base's edges in the world (:func:`~.overlap.overlapping`)."""
     world_m: FloatArray
     """(moving edges, 4) scratch: the moving part's edges in the world."""
+    near: IntArray
+    """Pairs whose vertex comes within the trial step's travel of their edge (first n, from
+    :func:`~.scan._contact_events`): the only ones :func:`~.scan._contacts_inside_step`
+    samples."""
 
 
 @njit(cache=True, nogil=True)
@@ -319,6 +323,7 @@ def new_work(model: Model, opts: Options) -> Work:
         np.empty(4, dtype=np.int64),  # choose_motion sets it before each use
         np.empty((model.base_edges.shape[0], 4)),
         np.empty((model.moving_edges.shape[0], 4)),
+        np.empty(n, dtype=np.int64),  # written by each scan before it is read
     )
     reset_work(work)
     return work

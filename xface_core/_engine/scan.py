@@ -146,14 +146,19 @@ def _slip_events(
 def _contact_events(
     opts: Options, seg: Segment, step: Step, work: Work, nb: float, nm: float, start: Trig,
     end: Trig, best: Event,
-) -> tuple[Event, bool]:  # fmt: skip
+) -> tuple[Event, bool, int]:  # fmt: skip
     """New contacts: an inactive pair's gap crosses its threshold inside the edge's span.
-    Also fills every pair's gap and edge parameter at the step's end (``work.g_next``), and
-    says whether two corners cross there that did not at the start (:func:`_crossing`)."""
+    Also fills every pair's gap and edge parameter at the step's end (``work.g_next``), says
+    whether two corners cross there that did not at the start (:func:`_crossing`), and lists
+    the inactive pairs whose vertex comes within the step's travel of their edge in
+    ``work.near`` (how many: the third value), for :func:`_contacts_inside_step`."""
     y1 = step.y_m - step.h
     # Arrays taken out of the records once: numba counts references on every attribute read.
     thr, g_prev, u_prev = work.thr, work.g_prev, work.u_prev
-    g_next, u_next, rays = work.g_next, work.u_next, work.rays
+    g_next, u_next, rays, near = work.g_next, work.u_next, work.rays, work.near
+    n_near = 0
+    # The turn between the ends, as _contacts_inside_step bounds a vertex's travel with it.
+    turn_ends = abs(nb - step.phi_b) + abs(nm - step.phi_m)
     pairs, act, n_act, x0 = seg.pairs, seg.act, seg.n_active, seg.x0
     tol = opts.event_tol
     cb1, sb1, cm1, sm1 = end
@@ -194,6 +199,9 @@ def _contact_events(
                                 (cb0, sb0, cm0, sm0, step.y_m), x0)  # fmt: skip
         if (n_act > 0 and act[0] == i) or (n_act > 1 and act[1] == i):
             continue
+        if _within_travel(row, g_prev[i], u_prev[i], g1, u1, _travel(row, step.h, turn_ends)):
+            near[n_near] = i
+            n_near += 1
         # The event function is the gap with the edge's convex corners clipped on
         # (pairs.clipped_gap): it is never below the plain gap, so a pair whose gap is above
         # its threshold at the step's end has not crossed, and one whose gap was above it at
@@ -235,7 +243,19 @@ def _contact_events(
             continue
         if _is_contact(seg, step, i, hk, thr[i]):
             best = Event(E_CONTACT, i, hk)
-    return best, crossed
+    return best, crossed, n_near
+
+
+@njit_no_refcount
+def _within_travel(
+    row: FloatArray, g0: float, u0: float, g1: float, u1: float, bound: float
+) -> bool:
+    """Does the pair's vertex come within ``bound`` (D, its travel in the step) of its edge at
+    either end of the step (gap and edge parameter ``g0, u0`` at the start, ``g1, u1`` at the
+    end)? Only then can it dip in and out inside the step."""
+    if abs(g0) > bound and abs(g1) > bound:
+        return False  # the segment is no nearer than the line (spares the square roots)
+    return min(_segment_distance(row, g0, u0), _segment_distance(row, g1, u1)) <= bound
 
 
 @njit_no_refcount
@@ -553,12 +573,15 @@ def _contacts_inside_step(
     end: Trig,
     best: Event,
     n_samples: int,
+    n_near: int,
 ) -> Event:
     """A vertex that goes in past a corner and out again within the step (the contact
     function above its threshold at both ends, below it in between: a base tip cutting off
     a corner of the moving part in one 0.025 D step was seen). Pairs whose vertex comes
     within a step's travel of their edge are sampled at ``k / (n_samples + 1)`` of the step
-    (up to the earliest event found); a dip is located like any contact."""
+    (up to the earliest event found); a dip is located like any contact. Only the first
+    ``n_near`` pairs of ``work.near`` can (:func:`_contact_events` listed them for the whole
+    step: the travel up to an earlier event is shorter)."""
     h_end = step.h if best.kind == E_NONE else best.h
     if h_end <= 4.0 * opts.event_tol:
         return best
@@ -570,27 +593,19 @@ def _contacts_inside_step(
         work.u_next,
         work.samples,
     )
-    pairs, act, n_act, x0 = seg.pairs, seg.act, seg.n_active, seg.x0
+    pairs, x0 = seg.pairs, seg.x0
     turn = abs(nb - step.phi_b) + abs(nm - step.phi_m)
     cb0, sb0, cm0, sm0 = start
     y1 = step.y_m - step.h
     cb1, sb1, cm1, sm1 = end
     sampled = False
     rates = (-1.0, -1.0)  # _turn_rates, once a pair needs them
-    for i in range(pairs.shape[0]):
-        if (n_act > 0 and act[0] == i) or (n_act > 1 and act[1] == i) or asleep(work, i):
-            continue
+    near = work.near
+    for j in range(n_near):
+        i = near[j]
         row = pairs[i]
-        bound = _travel(row, h_end, turn)
-        if abs(g_prev[i]) > bound and abs(g_next[i]) > bound:
-            continue  # the segment is no nearer than the line (spares the hypot below)
-        if (
-            min(
-                _segment_distance(row, g_prev[i], u_prev[i]),
-                _segment_distance(row, g_next[i], u_next[i]),
-            )
-            > bound
-        ):
+        if not _within_travel(row, g_prev[i], u_prev[i], g_next[i], u_next[i],
+                              _travel(row, h_end, turn)):  # fmt: skip
             continue
         # (The clipped gap is never below the plain one: a plain gap above the threshold
         # spares computing it.)
@@ -711,15 +726,19 @@ def find_event(opts: Options, seg: Segment, step: Step, work: Work, nb: float, n
     best = _active_events(opts, seg, step, nb, nm, end, NO_EVENT)
     if opts.friction > 0.0:
         best = _slip_events(opts, seg, step, nb, nm, best)
-    best, crossed = _contact_events(opts, seg, step, work, nb, nm, start, end, best)
-    best = _contacts_inside_step(opts, seg, step, work, nb, nm, start, end, best, COARSE_SAMPLES)
+    best, crossed, n_near = _contact_events(opts, seg, step, work, nb, nm, start, end, best)
+    best = _contacts_inside_step(
+        opts, seg, step, work, nb, nm, start, end, best, COARSE_SAMPLES, n_near
+    )
     best = _contacts_before(opts, seg, step, work, start, best)
     if best.kind != E_NONE:
         crossed = _crossed_at_event(opts, seg, step, work, nb, nm, start, best)
     if crossed:
         # Two corners cross like an X where the step ends: a vertex went in and out again
         # in a sliver of the step that the coarse samples missed.
-        best = _contacts_inside_step(opts, seg, step, work, nb, nm, start, end, best, FINE_SAMPLES)
+        best = _contacts_inside_step(
+            opts, seg, step, work, nb, nm, start, end, best, FINE_SAMPLES, n_near
+        )
     y1 = step.y_m - step.h
     if y1 < seg.y_floor:
         # y_M falls linearly with the descent: the crossing is known exactly.

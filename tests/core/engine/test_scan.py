@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import xface_core as xf
-from xface_core._engine.events import Segment, Step, step_to
+from xface_core._engine.events import NO_EVENT, Segment, Step, step_to
 from xface_core._engine.pairs import eval_all_pairs, pair_at
 from xface_core._engine.records import (
     CORNER_REACH,
@@ -22,11 +22,14 @@ from xface_core._engine.records import (
     make_options,
 )
 from xface_core._engine.scan import (
+    _contact_events,
     _far_behind,
     _far_outside,
     _far_outside_or_behind,
     _gap_bounds,
     _reach_budget,
+    _segment_distance,
+    _travel,
     _turn_rates,
     find_event,
 )
@@ -52,7 +55,7 @@ def _work(table: np.ndarray, pb: float, pm: float, x0: float, ym: float) -> Work
         np.zeros((STEP_MEMO_SLOTS + 1, STEP_MEMO_WIDTH)),
         np.column_stack([np.zeros(n), np.full(n, -1.0), np.zeros(n)]), np.zeros((2, DENSE_WIDTH)),
         np.empty((3, n + 2), dtype=np.int64), np.full(4, -1, dtype=np.int64),
-        np.empty((0, 4)), np.empty((0, 4)),
+        np.empty((0, 4)), np.empty((0, 4)), np.empty(n, dtype=np.int64),
     )  # fmt: skip
 
 
@@ -169,6 +172,32 @@ def test_the_gap_never_rises_above_its_ceiling_in_a_step(design, x0, theta0) -> 
                 assert low > 0.0
             checked += 1
     assert checked > 100
+
+
+@pytest.mark.parametrize(
+    ("design", "x0", "theta0"),
+    [(xf.s_face(0.5, 1.0), 0.1, -0.2), (xf.x_face(0.25, 2.0), 0.3, 0.2)],
+)
+def test_the_pairs_near_their_edge_are_listed_for_the_dip_search(design, x0, theta0) -> None:
+    # _contact_events lists the pairs _contacts_inside_step samples: every inactive pair
+    # whose vertex comes within the step's travel of its edge at either end, and no other.
+    listed = 0
+    for seg, step, _, ends in _screened_steps(design, x0, theta0):
+        nb, nm, _, _, _ = step_to(seg, step, step.h)
+        work = _work(seg.pairs, step.phi_b, step.phi_m, seg.x0, step.y_m)
+        _, _, n_near = _contact_events(OPTS, seg, step, work, nb, nm, *ends, NO_EVENT)
+        turn = abs(nb - step.phi_b) + abs(nm - step.phi_m)
+        expected = []
+        for i in range(seg.pairs.shape[0]):
+            if i in seg.act[: seg.n_active]:
+                continue
+            row, bound = seg.pairs[i], _travel(seg.pairs[i], step.h, turn)
+            g0, u0, g1, u1 = work.g_prev[i], work.u_prev[i], work.g_next[i], work.u_next[i]
+            if min(_segment_distance(row, g0, u0), _segment_distance(row, g1, u1)) <= bound:
+                expected.append(i)
+        assert sorted(work.near[:n_near]) == expected
+        listed += n_near
+    assert listed > 0
 
 
 @pytest.mark.parametrize(
