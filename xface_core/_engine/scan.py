@@ -193,7 +193,7 @@ def _contact_events(
         g1, u1, _, _, _, _, _, _, _ = eval_pair(row, cb1, sb1, cm1, sm1, x0, y1)
         g_next[i] = g1
         u_next[i] = u1
-        sleep[i, 0] = _reach_budget(row, g1, u1)
+        sleep[i, 0] = reach_budget(row, g1, u1)
         if not crossed:
             crossed = _crossing(opts, rays, row, g1, u1, (cb1, sb1, cm1, sm1, y1),
                                 (cb0, sb0, cm0, sm0, step.y_m), x0)  # fmt: skip
@@ -509,7 +509,7 @@ def _segment_distance(row: FloatArray, g: float, u: float) -> float:
 
 
 @njit_no_refcount
-def _reach_budget(row: FloatArray, g: float, u: float) -> float:
+def reach_budget(row: FloatArray, g: float, u: float) -> float:
     """How far (D) the pair's vertex can move relative to its edge, from where its gap is
     ``g`` and its edge parameter ``u``, and still be out of reach: farther than SLEEP_SLACK
     from the edge extended by a quarter of its length at both ends (where a crossing of its

@@ -52,7 +52,7 @@ from .records import (
     Work,
     njit_no_refcount,
 )
-from .scan import find_event, wake
+from .scan import find_event, reach_budget, wake
 
 
 @njit_no_refcount
@@ -79,13 +79,15 @@ def start_segment(
     eval_all_pairs(model.pairs, run.phi_b, run.phi_m, run.x0, run.y_m, work.ev)
     tt = opts.touch_tol
     ev, thr, g_prev, u_prev = work.ev, work.thr, work.g_prev, work.u_prev
-    sleep = work.sleep
+    sleep, pairs = work.sleep, model.pairs
     for i in range(ev.shape[0]):
         g = ev[i, 0]
         thr[i] = min(g, 0.0) - tt if -TOUCH_WINDOW * tt <= g <= tt else 0.0
         g_prev[i] = g
         u_prev[i] = ev[i, 1]
-        sleep[i, 0], sleep[i, 1], sleep[i, 2] = 0.0, -1.0, 0.0  # all in reach until looked at
+        # Looked at here: out of reach by its budget from now on, so the segment's first
+        # step need not evaluate a pair far from its edge (it evaluated all of them).
+        sleep[i, 0], sleep[i, 1], sleep[i, 2] = reach_budget(pairs[i], g, ev[i, 1]), -1.0, 0.0
     record(run, path, path_pairs, _phase(run), act, n)
     clear_step_memo(work.step_memo)
     work.dense[1, 4] = 0.0  # no trial step's dense output yet

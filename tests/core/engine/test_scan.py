@@ -27,11 +27,11 @@ from xface_core._engine.scan import (
     _far_outside,
     _far_outside_or_behind,
     _gap_bounds,
-    _reach_budget,
     _segment_distance,
     _travel,
     _turn_rates,
     find_event,
+    reach_budget,
 )
 from xface_core.physics import Physics
 from xface_core.runner import engine_model
@@ -239,7 +239,7 @@ def _distances(g: float, u: float, length: float) -> tuple[float, float]:
 
 
 @pytest.mark.parametrize("seed", range(5))
-def test_the_reach_budget_is_below_every_distance_at_which_a_pair_is_looked_at(seed) -> None:
+def test_thereach_budget_is_below_every_distance_at_which_a_pair_is_looked_at(seed) -> None:
     # A pair whose corners can cross is looked at near its edge and near its start corner;
     # the budget must be below both distances, so that a pair moving less than its budget
     # cannot get there unseen. One whose corners cannot cross is looked at near its edge.
@@ -248,16 +248,16 @@ def test_the_reach_budget_is_below_every_distance_at_which_a_pair_is_looked_at(s
     crossable, reflex = _budget_row(length, True), _budget_row(length, False)
     for g, u in zip(rng.normal(0.0, 1.0, 200), rng.normal(0.5, 1.5, 200), strict=True):
         to_edge, to_corner = _distances(g, u, length)
-        assert _reach_budget(crossable, g, u) <= min(to_edge, to_corner) + 1e-12
-        assert _reach_budget(reflex, g, u) <= to_edge + 1e-12
+        assert reach_budget(crossable, g, u) <= min(to_edge, to_corner) + 1e-12
+        assert reach_budget(reflex, g, u) <= to_edge + 1e-12
 
 
 def test_a_reflex_corner_does_not_keep_a_pair_near_it_in_the_scans() -> None:
     # Vertex half an edge beside the edge's line at its start corner: in the corner's disc,
     # but 0.3 edges from the edge itself. Only a pair whose corners can cross is kept there.
     length, g, u = 1.0, 0.3, -0.1
-    assert _reach_budget(_budget_row(length, True), g, u) < 0.0
-    assert _reach_budget(_budget_row(length, False), g, u) == pytest.approx(0.3 - 1e-6)
+    assert reach_budget(_budget_row(length, True), g, u) < 0.0
+    assert reach_budget(_budget_row(length, False), g, u) == pytest.approx(0.3 - 1e-6)
 
 
 def test_a_pair_flat_at_the_event_does_not_come_before_it() -> None:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from xface_core._engine.events import Step
 from xface_core._engine.records import (
     E_CONTACT,
     MAX_TURN,
@@ -15,6 +16,7 @@ from xface_core._engine.records import (
     make_options,
     new_work,
 )
+from xface_core._engine.scan import asleep, find_event, reach_budget
 from xface_core._engine.segment import (
     LOOP_EVENT,
     _shrink,
@@ -73,6 +75,30 @@ def test_begin_segment_sets_the_thresholds_of_new_contacts(incline) -> None:
     _, _, work, _, _ = _begin(incline, incline.phi_m0, incline.y0)
     assert work.g_prev[1] > tt
     assert work.thr[1] == 0.0
+
+
+def test_begin_segment_gives_every_pair_its_reach_budget(incline) -> None:
+    # Every pair was evaluated at the segment's start: each sleeps by its own budget from
+    # there (a pair clear of its edge need not be evaluated in the first step), and none is
+    # stale or marked asleep before a step is scanned.
+    _, _, work, _, _ = _begin(incline, incline.phi_m0, incline.y0)
+    for i in range(len(incline.table)):
+        budget = reach_budget(incline.table[i], work.g_prev[i], work.u_prev[i])
+        assert work.sleep[i].tolist() == [budget, -1.0, 0.0]
+    assert work.sleep[1, 0] > 0.0  # the incline's second pair starts clear of its edge
+
+
+def test_a_pair_clear_of_its_edge_sleeps_through_the_first_step(incline) -> None:
+    seg, runs, work, _, _ = _begin(incline, incline.phi_m0, incline.y0)
+    budget = work.sleep[1, 0]
+    r = runs[0]
+    r["h"] = 1e-4  # a step far shorter than pair 1's distance from its edge
+    step = Step(r["phi_b"], r["phi_m"], r["y_m"], r["h"])
+    nb, nm, _, _, ok = trial_step(OPTS, seg, step)
+    assert ok
+    find_event(OPTS, seg, step, work, nb, nm)
+    assert asleep(work, 1)
+    assert 0.0 < work.sleep[1, 0] < budget  # its budget spent by the step's travel
 
 
 def test_a_short_trial_step_is_accepted_with_its_turn(incline) -> None:
