@@ -294,6 +294,11 @@ class Work(NamedTuple):
     """Pairs whose vertex comes within the trial step's travel of their edge (first n, from
     :func:`~.scan._contact_events`): the only ones :func:`~.scan._contacts_inside_step`
     samples."""
+    sleep_holds: IntArray
+    """(1,) 1 from an event inside a scanned step until the next segment has started: the
+    budgets in ``sleep`` still hold at the run's state, so the interval's start and the
+    segment's evaluate only the pairs in reach (:func:`~.interval.begin_interval`,
+    :func:`~.segment.start_segment`)."""
 
 
 @njit(cache=True, nogil=True)
@@ -324,6 +329,7 @@ def new_work(model: Model, opts: Options) -> Work:
         np.empty((model.base_edges.shape[0], 4)),
         np.empty((model.moving_edges.shape[0], 4)),
         np.empty(n, dtype=np.int64),  # written by each scan before it is read
+        np.zeros(1, dtype=np.int64),
     )
     reset_work(work)
     return work
@@ -343,4 +349,5 @@ def reset_work(work: Work) -> None:
     work.step_memo[:] = 0.0
     work.sleep[:] = 0.0
     work.sleep[:, 1] = -1.0  # every pair in reach
+    work.sleep_holds[0] = 0
     work.dense[:] = 0.0

@@ -22,7 +22,7 @@ from .events import (
 )
 from .folds import cuts_in, solve_fold
 from .integrate import project
-from .pairs import eval_all_pairs
+from .pairs import COL_REACH, eval_pair
 from .records import (
     ALIGN_TOL,
     E_BELOW_SEAT,
@@ -52,7 +52,7 @@ from .records import (
     Work,
     njit_no_refcount,
 )
-from .scan import find_event, reach_budget, wake
+from .scan import asleep, find_event, reach_budget, wake
 
 
 @njit_no_refcount
@@ -74,20 +74,33 @@ def start_segment(
     qb, qm = project(
         model.pairs, act, n, run.phi_b, run.phi_m, run.x0, run.y_m, opts.winv_b, opts.winv_m
     )
+    turn = 0.0  # how far the projection turned the parts
     if max(abs(qb - run.phi_b), abs(qm - run.phi_m)) < 1e-6:
+        turn = abs(qb - run.phi_b) + abs(qm - run.phi_m)
         run.phi_b, run.phi_m = qb, qm
-    eval_all_pairs(model.pairs, run.phi_b, run.phi_m, run.x0, run.y_m, work.ev)
     tt = opts.touch_tol
-    ev, thr, g_prev, u_prev = work.ev, work.thr, work.g_prev, work.u_prev
+    thr, g_prev, u_prev = work.thr, work.g_prev, work.u_prev
     sleep, pairs = work.sleep, model.pairs
-    for i in range(ev.shape[0]):
-        g = ev[i, 0]
+    holds = work.sleep_holds[0] == 1
+    work.sleep_holds[0] = 0
+    cb, sb = math.cos(run.phi_b), math.sin(run.phi_b)
+    cm, sm = math.cos(run.phi_m), math.sin(run.phi_m)
+    for i in range(pairs.shape[0]):
+        row = pairs[i]
+        if holds and asleep(work, i) and sleep[i, 0] > turn * row[COL_REACH]:
+            # Out of reach through the event's step (the event's state included) and still
+            # after the projection's turn: it keeps what is left of its budget, and its
+            # values wait, stale, until it wakes (scan._refresh_start).
+            thr[i] = 0.0
+            sleep[i, 0], sleep[i, 1], sleep[i, 2] = sleep[i, 0] - turn * row[COL_REACH], -1.0, 1.0
+            continue
+        g, u, _, _, _, _, _, _, _ = eval_pair(row, cb, sb, cm, sm, run.x0, run.y_m)
         thr[i] = min(g, 0.0) - tt if -TOUCH_WINDOW * tt <= g <= tt else 0.0
         g_prev[i] = g
-        u_prev[i] = ev[i, 1]
+        u_prev[i] = u
         # Looked at here: out of reach by its budget from now on, so the segment's first
-        # step need not evaluate a pair far from its edge (it evaluated all of them).
-        sleep[i, 0], sleep[i, 1], sleep[i, 2] = reach_budget(pairs[i], g, ev[i, 1]), -1.0, 0.0
+        # step need not evaluate a pair far from its edge.
+        sleep[i, 0], sleep[i, 1], sleep[i, 2] = reach_budget(row, g, u), -1.0, 0.0
     record(run, path, path_pairs, _phase(run), act, n)
     clear_step_memo(work.step_memo)
     work.dense[1, 4] = 0.0  # no trial step's dense output yet
@@ -292,6 +305,9 @@ def handle_event(
                 run.n_excluded = n_ex - 1
                 break
     run.h = max(run.h, 1e3 * opts.event_tol)
+    # The run stands inside the step just scanned: the pairs out of reach all through it are
+    # still out of reach here (begin_interval, start_segment).
+    work.sleep_holds[0] = 1
 
 
 #: How the step loop of a segment stopped (:func:`steps_to_event`).

@@ -139,3 +139,53 @@ def test_begin_interval_at_the_mated_pose_after_a_contact_is_seated() -> None:
     r["phi_b"], r["y_m"], r["had_contact"] = phi, L * math.cos(phi), True
     run.begin()
     assert (r["outcome"], r["reason"]) == (O_SEATED, R_SEATED)
+
+
+def _asleep_far_pairs(run: Run, far: float) -> np.ndarray:
+    """Mark the pairs farther than ``far`` (D) from their edge line as asleep through the
+    last scanned step, as an event's step leaves them; returns the mask."""
+    r = run.r
+    ev = np.zeros((len(MODEL.pairs), 6))
+    eval_all_pairs(MODEL.pairs, r["phi_b"], r["phi_m"], r["x0"], r["y_m"], ev)
+    mask = np.abs(ev[:, 0]) > far
+    run.work.sleep[mask, 1] = 0.01
+    run.work.sleep_holds[0] = 1
+    return mask
+
+
+def test_begin_interval_after_an_event_evaluates_only_the_pairs_in_reach() -> None:
+    # The same state twice: every pair evaluated, or those asleep through the event's step
+    # left out. The choice is the same; the left-out pairs are no candidates.
+    full, kept = Run(0.3, 0.2), Run(0.3, 0.2)
+    full.approach()
+    kept.approach()
+    mask = _asleep_far_pairs(kept, 0.05)
+    assert 0 < mask.sum() < len(mask)
+    full.begin()
+    kept.begin()
+    assert kept.r["n_active"] == full.r["n_active"] >= 1
+    assert kept.work.act.tolist() == full.work.act.tolist()
+    assert np.all(np.isinf(kept.work.ev[mask, 0]))
+    assert np.array_equal(kept.work.ev[~mask, :5], full.work.ev[~mask, :5])
+
+
+def test_begin_interval_evaluates_every_pair_when_an_excluded_one_slept() -> None:
+    run = Run(0.3, 0.2)
+    run.approach()
+    mask = _asleep_far_pairs(run, 0.05)
+    run.work.exclude[0] = int(np.flatnonzero(mask)[0])
+    run.r["n_excluded"] = 1
+    run.begin()
+    assert np.all(np.isfinite(run.work.ev[:, 0]))
+    assert run.work.sleep_holds[0] == 0
+
+
+def test_an_approach_after_an_event_evaluates_every_pair_again() -> None:
+    # Nothing touches at the start: begin_interval leaves the sleeping pairs out, and the
+    # approach, which needs every pair's way to its contact, evaluates them all.
+    full, kept = Run(0.3, 0.2), Run(0.3, 0.2)
+    assert _asleep_far_pairs(kept, -1.0).all()  # the pair it will touch among them
+    full.approach()
+    kept.approach()
+    assert kept.r["y_m"] == full.r["y_m"]
+    assert kept.work.sleep_holds[0] == 0

@@ -56,6 +56,7 @@ def _work(table: np.ndarray, pb: float, pm: float, x0: float, ym: float) -> Work
         np.column_stack([np.zeros(n), np.full(n, -1.0), np.zeros(n)]), np.zeros((2, DENSE_WIDTH)),
         np.empty((3, n + 2), dtype=np.int64), np.full(4, -1, dtype=np.int64),
         np.empty((0, 4)), np.empty((0, 4)), np.empty(n, dtype=np.int64),
+        np.zeros(1, dtype=np.int64),
     )  # fmt: skip
 
 

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from xface_core._engine.events import Step
+from xface_core._engine.pairs import COL_REACH
 from xface_core._engine.records import (
     E_CONTACT,
     MAX_TURN,
@@ -86,6 +87,36 @@ def test_begin_segment_gives_every_pair_its_reach_budget(incline) -> None:
         budget = reach_budget(incline.table[i], work.g_prev[i], work.u_prev[i])
         assert work.sleep[i].tolist() == [budget, -1.0, 0.0]
     assert work.sleep[1, 0] > 0.0  # the incline's second pair starts clear of its edge
+
+
+def _begin_after_an_event(incline, budget: float):
+    # Off the constraint by 1e-9 (an event's leftover): the projection turns the part by that.
+    model = _model(incline)
+    runs = _run(incline, incline.phi_m0 + 1e-9, incline.y0)
+    work = new_work(model, OPTS)
+    work.act[0] = 0
+    work.sleep[1] = (budget, 0.01, 0.0)  # pair 1 asleep through the event's step
+    work.g_prev[1] = 123.0  # its value then, kept while it sleeps
+    work.sleep_holds[0] = 1
+    path, pairs = np.zeros((4, 4)), np.zeros((4, 4), dtype=np.int64)
+    begin_segment(model, OPTS, runs[0], work, path, pairs)
+    return work
+
+
+def test_a_pair_asleep_through_the_events_step_keeps_its_budget(incline) -> None:
+    work = _begin_after_an_event(incline, 0.3)
+    turn_reach = 1e-9 * incline.table[1, COL_REACH]
+    assert work.sleep[1].tolist() == pytest.approx([0.3 - turn_reach, -1.0, 1.0], abs=1e-15)
+    assert work.g_prev[1] == 123.0  # not evaluated: stale until it wakes
+    assert work.thr[1] == 0.0
+    assert work.sleep_holds[0] == 0
+
+
+def test_a_pair_whose_budget_the_projection_spends_is_evaluated(incline) -> None:
+    work = _begin_after_an_event(incline, 1e-12)
+    assert work.sleep[1, 2] == 0.0
+    assert work.g_prev[1] != 123.0
+    assert work.sleep[1, 0] == reach_budget(incline.table[1], work.g_prev[1], work.u_prev[1])
 
 
 def test_a_pair_clear_of_its_edge_sleeps_through_the_first_step(incline) -> None:
