@@ -406,25 +406,16 @@ def _behind_from_quarters(
 
 
 @njit_no_refcount
-def _far_outside(
-    seg: Segment, step: Step, i: int, thr: float, rates: tuple[float, float], start: Trig,
-    end: Trig,
-) -> bool:  # fmt: skip
-    """Does pair i's plain gap stay above its threshold all through the trial step (its
-    parts turning at most at ``rates``)? Then its contact function (the clipped gap, never
-    below the plain one) is positive at every state inside the step: sampling it there
-    finds nothing, and :func:`_contacts_inside_step` skips it with the same result."""
-    floor, _, _, _ = _gap_bounds(seg, step, i, rates, 1, start, end)
-    return floor > thr
-
-
-@njit_no_refcount
 def _far_outside_or_behind(
     seg: Segment, step: Step, i: int, thr: float, rates: tuple[float, float], start: Trig,
     end: Trig,
 ) -> bool:  # fmt: skip
-    """:func:`_far_outside` or :func:`_far_behind`, from one bound over the step's ends for
-    both (each computed it: about 20000 bounds, 40000 pair evaluations, per S 0.5/1 map)."""
+    """Does pair i's plain gap stay above its threshold all through the trial step (its
+    parts turning at most at ``rates``), or is it :func:`_far_behind`? Outside, its contact
+    function (the clipped gap, never below the plain one) is positive at every state inside
+    the step: sampling it there finds nothing, and :func:`_contacts_inside_step` skips it
+    with the same result. One bound over the step's ends serves both screens (computed once
+    for each: about 20000 bounds, 40000 pair evaluations, per S 0.5/1 map)."""
     floor, ceiling, _, g_top = _gap_bounds(seg, step, i, rates, 1, start, end)
     if floor > thr:
         return True

@@ -87,12 +87,13 @@ def start_segment(
     cm, sm = math.cos(run.phi_m), math.sin(run.phi_m)
     for i in range(pairs.shape[0]):
         row = pairs[i]
-        if holds and asleep(work, i) and sleep[i, 0] > turn * row[COL_REACH]:
+        spent = turn * row[COL_REACH]  # how far the projection moved its vertex, at most
+        if holds and asleep(work, i) and sleep[i, 0] > spent:
             # Out of reach through the event's step (the event's state included) and still
             # after the projection's turn: it keeps what is left of its budget, and its
             # values wait, stale, until it wakes (scan._refresh_start).
             thr[i] = 0.0
-            sleep[i, 0], sleep[i, 1], sleep[i, 2] = sleep[i, 0] - turn * row[COL_REACH], -1.0, 1.0
+            sleep[i, 0], sleep[i, 1], sleep[i, 2] = sleep[i, 0] - spent, -1.0, 1.0
             continue
         g, u, _, _, _, _, _, _, _ = eval_pair(row, cb, sb, cm, sm, run.x0, run.y_m)
         thr[i] = min(g, 0.0) - tt if -TOUCH_WINDOW * tt <= g <= tt else 0.0
