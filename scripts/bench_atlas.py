@@ -13,6 +13,7 @@ bounds, say so when quoting them.
 Usage::
 
     python scripts/bench_atlas.py [--poses 60] [--builds 3] [--held 5] [--stream 40] [--seed 1]
+        [--every-flip]
 """
 
 from __future__ import annotations
@@ -28,29 +29,40 @@ import numpy as np
 import numpy.typing as npt
 
 import xface_core as xf
+import xface_core.atlas_flips as atlas_flips_module
 import xface_core.atlas_margins as atlas_margins_module
 import xface_core.margins as margins_module
+import xface_core.runner as runner_module
 from xface_core.atlas import build_atlas
 
 DESIGNS = (("X", 0.25, 2.0), ("V", 0.5, 1.0), ("S", 1.0, 1.0))
 
 
 class SimulationCounter:
-    """Counts the poses and batch calls that the margin modules send to the engine."""
+    """Counts the poses and batch calls that the margin modules send to the engine: through
+    ``predict_batch`` (the exact search) and the engine's flat entry ``run_flat`` (the
+    atlas's confirmations, bisections and grid-line flips)."""
 
     def __init__(self) -> None:
         self.poses = 0
         self.calls = 0
-        self._real = xf.predict_batch
+        self._real_batch = xf.predict_batch
+        self._real_flat = runner_module.run_flat
 
-    def __call__(self, design: xf.FaceDesign, x0: Any, theta0: Any, **kw: Any) -> xf.BatchResult:
+    def batch(self, design: xf.FaceDesign, x0: Any, theta0: Any, **kw: Any) -> xf.BatchResult:
         self.calls += 1
         self.poses += int(np.broadcast(np.asarray(x0), np.asarray(theta0)).size)
-        return self._real(design, x0, theta0, **kw)
+        return self._real_batch(design, x0, theta0, **kw)
+
+    def flat(self, design: xf.FaceDesign, xs: Any, ts: Any, *args: Any, **kw: Any) -> Any:
+        self.calls += 1
+        self.poses += int(np.asarray(xs).size)
+        return self._real_flat(design, xs, ts, *args, **kw)
 
     def install(self) -> None:
-        atlas_margins_module.predict_batch = self  # type: ignore[assignment]
-        margins_module.predict_batch = self  # type: ignore[assignment]
+        margins_module.predict_batch = self.batch  # type: ignore[assignment]
+        atlas_margins_module.run_flat = self.flat  # type: ignore[assignment]
+        atlas_flips_module.run_flat = self.flat  # type: ignore[assignment]
 
     def take(self) -> tuple[int, int]:
         out = (self.poses, self.calls)
@@ -127,13 +139,18 @@ def main() -> None:
     parser.add_argument("--held", type=int, default=5, help="held poses of the stream")
     parser.add_argument("--stream", type=int, default=40, help="jittered queries per held pose")
     parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument(
+        "--every-flip",
+        action="store_true",
+        help="build with every grid-line flip bisected (build_atlas(every_flip=True), as the node)",
+    )
     args = parser.parse_args()
     rng = np.random.default_rng(args.seed)
     counter = SimulationCounter()
     counter.install()
     for kind, h, rp in DESIGNS:
         design = xf.make_face(kind, h, rp)
-        builds = [build_atlas(design) for _ in range(args.builds)]
+        builds = [build_atlas(design, every_flip=args.every_flip) for _ in range(args.builds)]
         atlas = builds[-1]
         build_s = statistics.median(b.build_seconds for b in builds)
         n_in_paper_range = int(
@@ -146,6 +163,7 @@ def main() -> None:
             f"(of {args.builds}: {', '.join(f'{b.build_seconds:.2f}' for b in builds)})"
         )
         fast_t, exact_t, fast_n, exact_n, prob_t = [], [], [], [], []
+        second_t, second_n = [], []
         for _ in range(args.poses):
             x0 = rng.uniform(-1.0, 1.0)
             theta0 = rng.uniform(-math.pi / 2, math.pi / 2)
@@ -153,6 +171,13 @@ def main() -> None:
             counter.take()
             fast_t.append(timed(lambda: xf.margins_from_atlas(atlas, x0, theta0, outcome)))  # noqa: B023
             fast_n.append(counter.take())
+            # A second query beside the first (a planner's next candidate start): on an atlas
+            # built without every flip, it bisects the grid lines around both.
+            x1, t1 = x0 + 1e-3, theta0 + 1e-3
+            outcome1 = xf.predict(design, x1, t1, path=False).outcome
+            counter.take()
+            second_t.append(timed(lambda: xf.margins_from_atlas(atlas, x1, t1, outcome1)))  # noqa: B023
+            second_n.append(counter.take())
             exact_t.append(timed(lambda: xf.outcome_margins(design, x0, theta0, outcome)))  # noqa: B023
             exact_n.append(counter.take())
             cov = np.diag([0.05**2, 0.05**2])
@@ -164,6 +189,12 @@ def main() -> None:
             f"{statistics.median(c for _, c in fast_n):.0f} batches), exact "
             f"{em * 1e3:.1f} ms ({statistics.median(p for p, _ in exact_n):.0f} simulations in "
             f"{statistics.median(c for _, c in exact_n):.0f} batches); ratio {em / fm:.1f}x"
+        )
+        print(
+            f"  margins of a second query 1e-3 D and 1e-3 rad beside it (median): "
+            f"{statistics.median(second_t) * 1e3:.1f} ms "
+            f"({statistics.median(p for p, _ in second_n):.0f} simulations in "
+            f"{statistics.median(c for _, c in second_n):.0f} batches)"
         )
         print(
             f"  seat_probability per query, sigma 0.05 D and 0.05 rad (median): "

@@ -36,6 +36,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from .atlas_flips import bisect_every_flip
 from .codes import Outcome
 from .errors import XfaceValueError
 from .geometry import FaceDesign
@@ -182,10 +183,12 @@ class AcceptanceAtlas:
         Every node started this far (D) above the lowest clear height for its angle: the
         default start of :func:`~xface_core.predict`.
     build_seconds : float
-        Wall time of the build (0 when loaded from the cache).
+        Wall time of the build, with the flips' bisection when built with ``every_flip``
+        (0 when loaded from the cache).
     flips : FlipStore
-        Flips on the grid lines bisected so far (:mod:`xface_core.atlas_flips`); grows as
-        queries touch boundaries, never stored on disk.
+        Flips on the grid lines bisected so far (:mod:`xface_core.atlas_flips`): all of
+        them when built with ``every_flip``, else they grow as queries touch boundaries;
+        saved with the atlas (:meth:`save`).
     """
 
     design: FaceDesign
@@ -332,6 +335,33 @@ def _check_positive(name: str, value: float) -> float:
     return v
 
 
+def _grid_size(
+    x_range: float, dx: float, t_range: float, dt: float, coarse_stride: int, max_nodes: int
+) -> tuple[int, int]:
+    """Nodes either side of zero along x0 and theta0 (:func:`build_atlas`'s grid), after
+    checking the stride and the grid's size."""
+    stride: object = coarse_stride
+    if (
+        isinstance(stride, bool)
+        or not isinstance(stride, int)
+        or coarse_stride < 1
+        or coarse_stride & (coarse_stride - 1)
+    ):
+        raise XfaceValueError(f"coarse_stride must be a power of two >= 1, got {coarse_stride!r}")
+    nx = _half_nodes(x_range, dx, coarse_stride)
+    nt = _half_nodes(t_range, dt, coarse_stride)
+    if nt * dt > 2.0 * math.pi:  # the engine takes |theta0| <= 2 pi
+        raise XfaceValueError("angle_range rounded up to the coarse stride exceeds 2 pi")
+    nodes = (2 * nx + 1) * (2 * nt + 1)
+    if nodes > max_nodes:
+        raise XfaceValueError(
+            f"an atlas of {2 * nx + 1} x {2 * nt + 1} = {nodes:,} nodes exceeds max_nodes="
+            f"{max_nodes:,} (about {nodes * 1e-4:.0f} s if every node were simulated at "
+            "100 us each); raise the steps or narrow the ranges"
+        )
+    return nx, nt
+
+
 def build_atlas(
     design: FaceDesign,
     *,
@@ -344,6 +374,7 @@ def build_atlas(
     max_nodes: int = MAX_ATLAS_NODES,
     cache_dir: str | Path | None = None,
     threads: int | None = None,
+    every_flip: bool = False,
 ) -> AcceptanceAtlas:
     """Build (or load from ``cache_dir``) the acceptance atlas of a design and physics.
 
@@ -371,6 +402,15 @@ def build_atlas(
         a directory is given.
     threads : int, optional
         Threads of the batch simulations (default: one per core).
+    every_flip : bool
+        Also bisect the flip of every boundary segment of the grid lines
+        (:func:`~xface_core.atlas_flips.bisect_every_flip`: 0.26-0.41 s more on the default
+        grids, 3-5 times the build),
+        so that the margins of a query near a boundary no one asked about before are
+        interpolated and confirmed with eight simulations instead of searched (docs/atlas.md).
+        A cached atlas that lacks some is completed and saved again. Default False: the
+        flips are then bisected lazily, as queries come by (seat probabilities never need
+        them).
 
     Examples
     --------
@@ -392,25 +432,7 @@ def build_atlas(
     t_range = _check_positive("angle_range", angle_range)
     if t_range > 2.0 * math.pi:
         raise XfaceValueError(f"angle_range must be <= 2 pi, got {angle_range!r}")
-    stride: object = coarse_stride
-    if (
-        isinstance(stride, bool)
-        or not isinstance(stride, int)
-        or coarse_stride < 1
-        or coarse_stride & (coarse_stride - 1)
-    ):
-        raise XfaceValueError(f"coarse_stride must be a power of two >= 1, got {coarse_stride!r}")
-    nx = _half_nodes(x_range, dx, coarse_stride)
-    nt = _half_nodes(t_range, dt, coarse_stride)
-    if nt * dt > 2.0 * math.pi:  # the engine takes |theta0| <= 2 pi
-        raise XfaceValueError("angle_range rounded up to the coarse stride exceeds 2 pi")
-    nodes = (2 * nx + 1) * (2 * nt + 1)
-    if nodes > max_nodes:
-        raise XfaceValueError(
-            f"an atlas of {2 * nx + 1} x {2 * nt + 1} = {nodes:,} nodes exceeds max_nodes="
-            f"{max_nodes:,} (about {nodes * 1e-4:.0f} s if every node were simulated at "
-            "100 us each); raise the steps or narrow the ranges"
-        )
+    nx, nt = _grid_size(x_range, dx, t_range, dt, coarse_stride, max_nodes)
     key = atlas_key(
         design,
         phys,
@@ -423,9 +445,13 @@ def build_atlas(
     path = None if cache_dir is None else cache_path(cache_dir, key)
     if path is not None and path.exists():
         try:
-            return _load(path, design, phys, key)
+            loaded = _load(path, design, phys, key)
         except (OSError, ValueError, KeyError, zipfile.BadZipFile):
             pass  # unreadable (truncated by a crash, or foreign): rebuilt and overwritten
+        else:
+            if every_flip and bisect_every_flip(loaded, threads=threads):
+                loaded.save(path)
+            return loaded
 
     # Integer multiples: mirrored nodes are exact negatives (the mirror fill relies on it).
     x_d = np.arange(-nx, nx + 1).astype(np.float64) * dx
@@ -442,6 +468,9 @@ def build_atlas(
         simulated=simulated,
         build_seconds=time.perf_counter() - t0,
     )
+    if every_flip:
+        bisect_every_flip(atlas, threads=threads)
+        atlas = replace(atlas, build_seconds=time.perf_counter() - t0)  # the flips as well
     if path is not None:
         atlas.save(path)
     return atlas

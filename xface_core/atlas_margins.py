@@ -27,7 +27,7 @@ import numpy as np
 import numpy.typing as npt
 
 from .atlas import AcceptanceAtlas
-from .atlas_flips import FlipKey, grid_flips
+from .atlas_flips import LINE_FLIP_REFINEMENT, FlipKey, grid_flips
 from .errors import XfaceValueError
 from .margins import (
     ANGLE_RESOLUTION,
@@ -46,9 +46,6 @@ from .runner import DEFAULT_THREADS, check_pose, clear_start_height, run_flat, t
 
 __all__ = ["margins_from_atlas"]
 
-#: The grid lines' own flips are bisected this much finer than the margins' resolution, so
-#: the interpolation between them is limited by the boundary's curvature, not by them.
-LINE_FLIP_REFINEMENT = 4.0
 #: Half-width of the confirmed bracket around an interpolated flip, in units of the
 #: resolution: just under half, so the bracket is narrower than the exact search's.
 CONFIRM_HALF_WIDTH = 0.45

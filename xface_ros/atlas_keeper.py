@@ -14,7 +14,7 @@ import threading
 from collections.abc import Callable, Hashable
 from typing import TYPE_CHECKING
 
-from xface_core.atlas import AcceptanceAtlas, build_atlas, cache_path
+from xface_core.atlas import AcceptanceAtlas, build_atlas
 from xface_core.geometry import FaceDesign
 from xface_core.physics import Physics
 from xface_ros.config import NodeConfig
@@ -49,10 +49,6 @@ class AtlasKeeper:
         self._atlas: AcceptanceAtlas | None = None
         self._state = "off"
         self._threads: list[threading.Thread] = []
-        # Where the ready atlas is cached ("" = nowhere) and how many grid-line flips it
-        # held when it was last written or read there.
-        self._cache_dir = ""
-        self._flips_on_disk = 0
 
     @property
     def state(self) -> str:
@@ -78,15 +74,17 @@ class AtlasKeeper:
     def _build_or_load(
         self, design: FaceDesign, physics: Physics, cache_dir: str
     ) -> AcceptanceAtlas:
-        """Build the atlas, or load it from ``cache_dir`` (empty: no cache). A cache that
-        cannot be written costs the next start its build, not this one its atlas."""
+        """Build the atlas with every grid-line flip bisected (a planner's first question
+        near a boundary then takes eight confirmations, not a search), or load it from
+        ``cache_dir`` (empty: no cache). A cache that cannot be written costs the next start
+        its build, not this one its atlas."""
         if not cache_dir:
-            return build_atlas(design, physics=physics)
+            return build_atlas(design, physics=physics, every_flip=True)
         try:
-            return build_atlas(design, physics=physics, cache_dir=cache_dir)
+            return build_atlas(design, physics=physics, cache_dir=cache_dir, every_flip=True)
         except OSError as exc:
             self._logger.warning(f"atlas cache {cache_dir!r} not usable, atlas not kept: {exc}")
-            return build_atlas(design, physics=physics)
+            return build_atlas(design, physics=physics, every_flip=True)
 
     def join(self, timeout_s: float = 60.0) -> None:
         """Wait for the builds started so far (tests, shutdown)."""
@@ -107,27 +105,4 @@ class AtlasKeeper:
             if key != self._wanted:
                 return  # the design changed while this one was being built
             self._atlas, self._state = atlas, "ready"
-            self._cache_dir, self._flips_on_disk = config.atlas_cache_dir, len(atlas.flips)
         self._logger.info("acceptance atlas ready: margins from the atlas")
-
-    def persist(self) -> tuple[str, bool] | None:
-        """Write the ready atlas to its cache again if it found grid-line flips since it was
-        built or loaded (they make a restart's first margins near them cheap): a sentence
-        saying what happened and whether the write failed, or None when there was nothing to
-        write. Never raises: the node calls it while shutting down."""
-        with self._lock:
-            atlas, cache_dir, on_disk = self._atlas, self._cache_dir, self._flips_on_disk
-        if atlas is None or not cache_dir:
-            return None
-        flips = len(atlas.flips)
-        if flips <= on_disk:
-            return None
-        path = cache_path(cache_dir, atlas.key)
-        try:
-            atlas.save(path)
-        except (OSError, ValueError) as exc:
-            return f"atlas cache {cache_dir!r}: the {flips} grid-line flips not kept: {exc}", True
-        with self._lock:
-            if self._atlas is atlas:
-                self._flips_on_disk = flips
-        return f"acceptance atlas saved with {flips} grid-line flips: {path}", False

@@ -435,16 +435,10 @@ class _Predictor(Node):
     # --- shutdown ---------------------------------------------------------------------------
 
     def close(self) -> None:
-        """Stop the worker, keep the atlas's new flips in its cache and finish the recording
-        (idempotent)."""
+        """Stop the worker and finish the recording (idempotent)."""
         worker, self._worker = self._worker, None
         if worker is not None:
             worker.stop(timeout_s=30.0)
-            # The grid-line flips found while running go to the atlas cache (if any).
-            saved = worker.atlas.persist() if worker.atlas is not None else None
-            if saved is not None:
-                text, failed = saved
-                self._say_at_shutdown(text, error=failed)
         recorder, self._recorder = self._recorder, None
         if recorder is None:
             return

@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import math
+import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -169,3 +171,37 @@ def test_a_cache_file_with_damaged_flips_is_rebuilt(tmp_path: Path) -> None:
     again = build_atlas(design, cache_dir=tmp_path, **SMALL)
     assert again.build_seconds > 0.0
     assert np.array_equal(again.outcomes, built.outcomes)
+
+
+def test_a_cached_atlas_without_every_flip_is_completed_and_saved_again(tmp_path: Path) -> None:
+    from xface_core.atlas_flips import boundary_segments
+
+    design = xf.v_face(0.5, 1.0)
+    lazy = build_atlas(design, cache_dir=tmp_path, **SMALL)
+    assert len(lazy.flips) == 0
+    completed = build_atlas(design, cache_dir=tmp_path, **SMALL, every_flip=True)
+    segments = len(boundary_segments(completed.outcomes))
+    assert segments > 0
+    assert len(completed.flips) == segments
+    again = build_atlas(design, cache_dir=tmp_path, **SMALL)  # read from the file
+    assert again.build_seconds == 0.0
+    assert len(again.flips) == segments
+
+
+def test_build_seconds_include_the_flips_when_every_flip_is_bisected(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # The bisection is made to last at least 0.3 s: a build time without it would be the
+    # refinement's alone (milliseconds on this grid).
+    from xface_core import atlas as atlas_module
+
+    real = atlas_module.bisect_every_flip
+
+    def slow(*args: Any, **kwargs: Any) -> int:
+        time.sleep(0.3)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(atlas_module, "bisect_every_flip", slow)
+    atlas = build_atlas(xf.v_face(0.5, 1.0), **SMALL, every_flip=True)
+    assert atlas.build_seconds >= 0.3
+    assert len(atlas.flips) > 0

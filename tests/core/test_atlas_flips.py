@@ -1,4 +1,5 @@
-"""Grid-line flips: bisected lazily, bracketed to the resolution, kept in the atlas."""
+"""Grid-line flips: bisected lazily or all after the build, bracketed to the resolution, kept
+in the atlas."""
 
 from __future__ import annotations
 
@@ -10,7 +11,13 @@ import pytest
 import xface_core as xf
 from xface_core import atlas_flips
 from xface_core.atlas import build_atlas
-from xface_core.atlas_flips import FlipKey, grid_flips
+from xface_core.atlas_flips import (
+    LINE_RESOLUTION,
+    FlipKey,
+    bisect_every_flip,
+    boundary_segments,
+    grid_flips,
+)
 
 COARSE = {"lateral_step": 1 / 32, "angle_step": math.pi / 128}
 RESOLUTION = (1e-4, 1e-5)
@@ -96,3 +103,63 @@ def test_an_atlas_pickles_with_its_flips(x_atlas: xf.AcceptanceAtlas) -> None:
     copy = pickle.loads(pickle.dumps(x_atlas))
     assert copy.flips.get(keys[0]) == x_atlas.flips.get(keys[0])
     assert np.array_equal(copy.outcomes, x_atlas.outcomes)
+
+
+def test_boundary_segments_are_the_grid_segments_whose_nodes_differ() -> None:
+    outcomes = np.array([[3, 3, 4], [3, 4, 4]], dtype=np.int8)  # (x0 node, theta0 node)
+    # Along x0 (axis 0, line = theta0 index): column 1 differs between x0 nodes 0 and 1.
+    # Along theta0 (axis 1, line = x0 index): row 0 flips after node 1, row 1 after node 0.
+    assert sorted(boundary_segments(outcomes)) == [(0, 1, 0), (1, 0, 1), (1, 1, 0)]
+
+
+@pytest.fixture(scope="module")
+def every_flip_atlas() -> xf.AcceptanceAtlas:
+    return build_atlas(xf.v_face(0.5, 1.0), **COARSE, every_flip=True)
+
+
+def test_an_atlas_built_with_every_flip_knows_the_flip_of_each_boundary_segment(
+    every_flip_atlas: xf.AcceptanceAtlas,
+) -> None:
+    keys = boundary_segments(every_flip_atlas.outcomes)
+    assert len(keys) > 100
+    assert len(every_flip_atlas.flips) == len(keys)
+    for key in keys:
+        lo, hi = every_flip_atlas.flips.get(key)  # type: ignore[misc]
+        assert 0.0 < hi - lo <= LINE_RESOLUTION[key[0]]
+
+
+def test_every_flip_brackets_a_real_flip(every_flip_atlas: xf.AcceptanceAtlas) -> None:
+    # A sample of the brackets simulated at both ends: the node's outcome at lo, another at hi.
+    keys = boundary_segments(every_flip_atlas.outcomes)[::97]
+    poses = []
+    for key in keys:
+        lo, hi = every_flip_atlas.flips.get(key)  # type: ignore[misc]
+        poses += [_pose(every_flip_atlas, key, lo), _pose(every_flip_atlas, key, hi)]
+    xs, ts = zip(*poses, strict=True)
+    codes = xf.predict_batch(every_flip_atlas.design, xs, ts).outcome
+    for n, (axis, line, node) in enumerate(keys):
+        out = every_flip_atlas.outcomes
+        node_code = out[node, line] if axis == 0 else out[line, node]
+        assert codes[2 * n] == node_code
+        assert codes[2 * n + 1] != node_code
+
+
+def test_bisecting_every_flip_again_simulates_nothing(
+    every_flip_atlas: xf.AcceptanceAtlas, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    def no_simulation(*args: object, **kwargs: object) -> None:
+        raise AssertionError("simulated a known flip again")
+
+    monkeypatch.setattr(atlas_flips, "run_flat", no_simulation)
+    assert bisect_every_flip(every_flip_atlas) == 0
+
+
+def test_every_flip_completes_the_flips_a_query_left(x_atlas: xf.AcceptanceAtlas) -> None:
+    # The lazily found ones are kept; the rest are bisected: one flip per segment in the end.
+    import pickle
+
+    atlas = pickle.loads(pickle.dumps(x_atlas))  # its own store
+    keys = boundary_segments(atlas.outcomes)
+    known = len(atlas.flips)
+    assert bisect_every_flip(atlas) == len(keys) - known
+    assert len(atlas.flips) == len(keys)

@@ -133,6 +133,19 @@ def test_a_start_clear_of_the_base_at_every_angle_is_read_from_the_atlas(
     assert _agree(got, exact, design.width)
 
 
+def _count_simulations(monkeypatch: pytest.MonkeyPatch) -> list[int]:
+    """The poses of every batch the atlas's margins send to the engine from now on."""
+    calls: list[int] = []
+    counted = atlas_margins.run_flat
+
+    def counting(design: xf.FaceDesign, x0: np.ndarray, *args: object, **kw: object) -> object:
+        calls.append(len(x0))
+        return counted(design, x0, *args, **kw)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(atlas_margins, "run_flat", counting)
+    return calls
+
+
 def test_with_the_grid_flips_known_a_query_takes_eight_simulations(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
@@ -143,16 +156,24 @@ def test_with_the_grid_flips_known_a_query_takes_eight_simulations(
     outcome = xf.predict(design, 0.05, 0.1, path=False).outcome
     for _ in range(2):  # the second query near a boundary bisects its grid lines
         xf.margins_from_atlas(atlas, 0.05, 0.1, outcome)
-    calls: list[int] = []
-    counted = atlas_margins.run_flat
-
-    def counting(design: xf.FaceDesign, x0: np.ndarray, *args: object, **kw: object) -> object:
-        calls.append(len(x0))
-        return counted(design, x0, *args, **kw)  # type: ignore[arg-type]
-
-    monkeypatch.setattr(atlas_margins, "run_flat", counting)
+    calls = _count_simulations(monkeypatch)
     got = xf.margins_from_atlas(atlas, 0.05 + 1e-4, 0.1 + 1e-4, outcome)
     exact = xf.outcome_margins(design, 0.05 + 1e-4, 0.1 + 1e-4, outcome)
+    assert sum(calls) == 8
+    assert _agree(got, exact, design.width)
+
+
+def test_with_every_flip_the_first_query_near_a_boundary_takes_eight_simulations(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # build_atlas(every_flip=True), as in the node: no query has been near these boundaries,
+    # yet the four flips are interpolated and confirmed, not searched.
+    atlas = build_atlas(xf.x_face(0.25, 1.0), **COARSE, every_flip=True)
+    design = atlas.design
+    outcome = xf.predict(design, 0.05, 0.1, path=False).outcome
+    calls = _count_simulations(monkeypatch)
+    got = xf.margins_from_atlas(atlas, 0.05, 0.1, outcome)
+    exact = xf.outcome_margins(design, 0.05, 0.1, outcome)
     assert sum(calls) == 8
     assert _agree(got, exact, design.width)
 
