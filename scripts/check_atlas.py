@@ -10,6 +10,10 @@
 Usage::
 
     python scripts/check_atlas.py [--poses 1000] [--queries 30] [--samples 20000] [--seed 0]
+        [--every-flip]
+
+``--every-flip`` builds the margins' atlases with every grid-line flip bisected
+(``build_atlas(every_flip=True)``, as the ROS node does).
 """
 
 from __future__ import annotations
@@ -62,13 +66,13 @@ def _values(m: xf.Margins) -> npt.NDArray[np.float64]:
     return np.array([m.lateral_minus, m.lateral_plus, m.angle_minus, m.angle_plus])
 
 
-def check_margins(n_poses: int, rng: np.random.Generator) -> None:
+def check_margins(n_poses: int, rng: np.random.Generator, every_flip: bool = False) -> None:
     per = math.ceil(n_poses / len(MARGIN_DESIGNS))
     total = agree = 0
     tol = np.array([LATERAL_RESOLUTION] * 2 + [ANGLE_RESOLUTION] * 2) * (1 + 1e-9)
     for kind, h, rp in MARGIN_DESIGNS:
         design = xf.make_face(kind, h, rp)
-        atlas = xf.build_atlas(design)
+        atlas = xf.build_atlas(design, every_flip=every_flip)
         poses = random_poses(atlas, per, rng)
         t_atlas = t_exact = 0.0
         bad = 0
@@ -144,10 +148,11 @@ def main() -> None:
     parser.add_argument("--samples", type=int, default=20000)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--skip", choices=("margins", "probability"), default=None)
+    parser.add_argument("--every-flip", action="store_true", help="atlases with every flip")
     args = parser.parse_args()
     rng = np.random.default_rng(args.seed)
     if args.skip != "margins":
-        check_margins(args.poses, rng)
+        check_margins(args.poses, rng, args.every_flip)
     if args.skip != "probability":
         check_probability(args.queries, args.samples, rng)
 
