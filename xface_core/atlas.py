@@ -405,12 +405,11 @@ def build_atlas(
     every_flip : bool
         Also bisect the flip of every boundary segment of the grid lines
         (:func:`~xface_core.atlas_flips.bisect_every_flip`: 0.26-0.41 s more on the default
-        grids, 3-5 times the build),
-        so that the margins of a query near a boundary no one asked about before are
-        interpolated and confirmed with eight simulations instead of searched (docs/atlas.md).
-        A cached atlas that lacks some is completed and saved again. Default False: the
-        flips are then bisected lazily, as queries come by (seat probabilities never need
-        them).
+        grids, 3-5 times the build), so that the margins of a query near a boundary no one
+        asked about before are interpolated and confirmed with eight simulations instead of
+        searched (docs/atlas.md). A cached atlas that lacks some is completed and saved
+        again. Default False: the flips are then bisected lazily, as queries come by (seat
+        probabilities never need them).
 
     Examples
     --------

@@ -172,7 +172,7 @@ def _contact_events(
     sleep = work.sleep
     # Twice the turn between the ends: the bound on the turn inside an accepted step that
     # _turn_rates also takes.
-    turn = 2.0 * (abs(nb - step.phi_b) + abs(nm - step.phi_m))
+    turn = 2.0 * turn_ends
     for i in range(pairs.shape[0]):
         row = pairs[i]
         travel = _travel(row, step.h, turn)
