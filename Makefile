@@ -3,7 +3,7 @@
 # into it; later runs skip the install until pyproject.toml changes.
 #
 #   make demo        the ROS node on its default configuration fed by a bundled pose source
-#   make test        ruff, ruff format --check, mypy --strict xface_core, pytest (+ doctests)
+#   make test        ruff, ruff format --check, mypy --strict xface_core xface_ros, pytest (+ doctests)
 #   make help        every target
 
 SHELL := /bin/bash
@@ -62,8 +62,8 @@ lint: $(STAMP) ## ruff check
 format-check: $(STAMP) ## ruff format --check
 	$(BIN)/ruff format --check .
 
-typecheck: $(STAMP) ## mypy --strict on xface_core
-	$(BIN)/mypy --strict xface_core
+typecheck: $(STAMP) ## mypy --strict on xface_core and xface_ros
+	$(BIN)/mypy --strict xface_core xface_ros
 
 pytest: $(STAMP) ## pytest: tests/ and the doctests of xface_core (PYTEST_ARGS=...)
 	@echo "pytest with ROS_DOMAIN_ID=$(ROS_DOMAIN_ID) ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST"
