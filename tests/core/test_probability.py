@@ -76,6 +76,45 @@ def test_singular_covariance_is_a_line_integral(coarse_v_atlas: xf.AcceptanceAtl
     assert p == pytest.approx(expected, abs=2e-3)
 
 
+def test_crossing_steps_narrow_the_boundaries(coarse_v_atlas: xf.AcceptanceAtlas) -> None:
+    # The line integral of the test above: with no bisection a crossing is the middle of its
+    # two samples (off by up to half their spacing); 8 steps bring it to the exact margins.
+    design = coarse_v_atlas.design
+    sx = 0.3
+    m = xf.predict(design, 0.0, 0.0, path=False, margins=True).margins
+    assert m is not None
+
+    def phi(z: float) -> float:
+        return 0.5 * (1.0 + math.erf(z / math.sqrt(2.0)))
+
+    expected = phi(m.lateral_plus / sx) - phi(-m.lateral_minus / sx)
+    cov = _cov(sx, 0.0, 0.0)
+    err = {
+        steps: abs(
+            float(
+                xf.seat_probability(
+                    design, 0.0, 0.0, cov, atlas=coarse_v_atlas, crossing_steps=steps
+                )
+            )
+            - expected
+        )
+        for steps in (0, 8)
+    }
+    assert err[8] < err[0] / 4.0
+    assert err[8] <= 2e-4
+
+
+@pytest.mark.parametrize("steps", [-1, 31, True, 2.0])
+def test_crossing_steps_must_be_an_integer_in_range(
+    coarse_v_atlas: xf.AcceptanceAtlas, steps: object
+) -> None:
+    with pytest.raises(xf.XfaceValueError, match="crossing_steps must be an integer"):
+        xf.seat_probability(
+            coarse_v_atlas.design, 0.0, 0.0, np.eye(2) * 1e-4, atlas=coarse_v_atlas,
+            crossing_steps=steps,  # type: ignore[arg-type]
+        )  # fmt: skip
+
+
 @pytest.mark.parametrize(
     "cov",
     [
