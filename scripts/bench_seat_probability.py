@@ -1,14 +1,15 @@
 #!/usr/bin/env python3
-"""Seat probability: run time against error for the quadrature's two settings.
+"""Seat probability: run time against error for the quadrature's settings.
 
     .venv/bin/python scripts/bench_seat_probability.py [--queries 12] [--seed 0]
 
-``seat_probability`` integrates the Gaussian over rays (``rays``, default 128) and bisects
-every boundary crossing along a ray ``crossing_steps`` times (default 6). This script draws
+``seat_probability`` integrates the Gaussian over rays, adaptive in angle (``ray_tol``, the
+default) or ``rays`` evenly spaced ones, and bisects every boundary crossing along a ray
+``crossing_steps`` times (default 4). This script draws
 random queries that straddle a boundary (0.001 < P < 0.999 at the reference) on the designs
 of ``scripts/check_atlas.py``'s probability check and the ROS node's (X 0.25/1), computes a
-reference with 1024 rays and 10 crossing steps, and reports for each setting the largest and
-the median |P - P_ref| and the median time and simulations per query. The poses and
+reference with 1024 even rays and 10 crossing steps, and reports for each setting the largest
+and the median |P - P_ref| and the median time, rays and simulations per query. The poses and
 covariances are drawn as in ``check_atlas.py`` (sigma log-uniform in [0.005, 0.32] D and rad,
 correlation in [-0.9, 0.9]), from seat-adjacent poses only (half of that script's draws), since
 queries inside one outcome cost one simulation at any setting.
@@ -30,8 +31,11 @@ DESIGNS = (("X", 0.25, 2.0), ("V", 0.5, 1.0), ("S", 1.0, 1.0), ("X", 0.25, 1.0))
 REFERENCE = (1024, 10)
 RAYS = (16, 32, 64, 128)
 STEPS = (3, 4, 6)
+RAY_TOLS = (1e-1, 3e-2, 1e-2, 3e-3)
+#: A setting: even rays (None: adaptive), ray_tol, crossing steps.
+Setting = tuple[int | None, float, int]
 #: The defaults of seat_probability.
-DEFAULT = (probability.DEFAULT_RAYS, probability.CROSSING_STEPS)
+DEFAULT: Setting = (None, probability.DEFAULT_RAY_TOL, probability.CROSSING_STEPS)
 
 
 def straddling_queries(
@@ -53,15 +57,22 @@ def straddling_queries(
 
 
 class Counting:
-    """Counts the simulations ``seat_probability`` asks ``predict_batch`` for."""
+    """Counts the simulations ``seat_probability`` asks ``predict_batch`` for and the rays
+    whose masses it computes."""
 
     def __init__(self) -> None:
         self.sims = 0
+        self.rays = 0
         self._inner = probability.predict_batch
+        self._masses = probability._ray_masses
 
     def __call__(self, design, x0, theta0, **kw):  # type: ignore[no-untyped-def]
         self.sims += int(np.size(x0))
         return self._inner(design, x0, theta0, **kw)
+
+    def masses(self, *args):  # type: ignore[no-untyped-def]
+        self.rays += int(np.size(args[4]))  # phi
+        return self._masses(*args)
 
 
 def main() -> None:
@@ -72,10 +83,13 @@ def main() -> None:
     rng = np.random.default_rng(args.seed)
     counter = Counting()
     probability.predict_batch = counter  # count the simulations of every call below
-    settings = [(r, s) for r in RAYS for s in STEPS]
-    errors: dict[tuple[int, int], list[float]] = {key: [] for key in settings}
-    times: dict[tuple[int, int], list[float]] = {key: [] for key in settings}
-    sims: dict[tuple[int, int], list[int]] = {key: [] for key in settings}
+    probability._ray_masses = counter.masses  # and the rays
+    settings: list[Setting] = [(r, 0.0, s) for r in RAYS for s in STEPS]
+    settings += [(None, t, probability.CROSSING_STEPS) for t in RAY_TOLS]
+    errors: dict[Setting, list[float]] = {key: [] for key in settings}
+    times: dict[Setting, list[float]] = {key: [] for key in settings}
+    sims: dict[Setting, list[int]] = {key: [] for key in settings}
+    rays_used: dict[Setting, list[int]] = {key: [] for key in settings}
     worst = (-1.0, "")  # the default setting's largest error and its query
     for kind, h, rp in DESIGNS:
         design = xf.make_face(kind, h, rp)
@@ -93,18 +107,22 @@ def main() -> None:
             if not 0.001 < ref < 0.999:
                 continue
             kept += 1
-            for rays, steps in settings:
-                counter.sims = 0
+            for key in settings:
+                rays, tol, steps = key
+                counter.sims = counter.rays = 0
                 t0 = time.perf_counter()
                 p = float(
                     xf.seat_probability(
-                        design, x, theta0, c, atlas=atlas, rays=rays, crossing_steps=steps
+                        design, x, theta0, c, atlas=atlas, rays=rays,
+                        ray_tol=tol if rays is None else probability.DEFAULT_RAY_TOL,
+                        crossing_steps=steps,
                     )
-                )
-                times[(rays, steps)].append(time.perf_counter() - t0)
-                sims[(rays, steps)].append(counter.sims)
-                errors[(rays, steps)].append(abs(p - ref))
-                if (rays, steps) == DEFAULT and abs(p - ref) > worst[0]:
+                )  # fmt: skip
+                times[key].append(time.perf_counter() - t0)
+                sims[key].append(counter.sims)
+                rays_used[key].append(counter.rays)
+                errors[key].append(abs(p - ref))
+                if key == DEFAULT and abs(p - ref) > worst[0]:
                     sx, st = math.sqrt(c[0, 0]), math.sqrt(c[1, 1])
                     query = (
                         f"{kind} {h:g}/{rp:g} x0 {x0:+.4f} D, theta0 {theta0:+.4f}, sigma "
@@ -116,13 +134,18 @@ def main() -> None:
     n = len(errors[settings[0]])
     print(f"\n{n} straddling queries over {len(DESIGNS)} designs; reference "
           f"{REFERENCE[0]} rays, {REFERENCE[1]} crossing steps\n")  # fmt: skip
-    print("| rays | crossing steps | max abs error | median abs error | median ms | median sims |")
-    print("|---:|---:|---:|---:|---:|---:|")
+    print(
+        "| rays | crossing steps | max abs error | median abs error | median ms | "
+        "rays, median (max) | median sims |"
+    )
+    print("|---|---:|---:|---:|---:|---:|---:|")
     for key in settings:
-        e = errors[key]
+        e, n = errors[key], rays_used[key]
+        name = f"{key[0]} even" if key[0] is not None else f"adaptive, ray_tol {key[1]:g}"
         print(
-            f"| {key[0]} | {key[1]} | {max(e):.1e} | {statistics.median(e):.1e} | "
-            f"{1e3 * statistics.median(times[key]):.1f} | {statistics.median(sims[key]):.0f} |"
+            f"| {name} | {key[2]} | {max(e):.1e} | {statistics.median(e):.1e} | "
+            f"{1e3 * statistics.median(times[key]):.1f} | {statistics.median(n):.0f} ({max(n)}) "
+            f"| {statistics.median(sims[key]):.0f} |"
         )
     print(f"\nlargest error at the defaults {DEFAULT}: {worst[0]:.1e}, {worst[1]}")
 

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 import xface_core as xf
+from xface_core.probability import DEFAULT_RAY_TOL, FIRST_RAYS, _adaptive_in_angle
 
 
 def _cov(sx: float, st: float, rho: float) -> np.ndarray:
@@ -76,6 +77,61 @@ def test_singular_covariance_is_a_line_integral(coarse_v_atlas: xf.AcceptanceAtl
     assert p == pytest.approx(expected, abs=2e-3)
 
 
+def test_adaptive_rays_keep_a_constant_at_the_first_level() -> None:
+    calls: list[int] = []
+
+    def masses(phi: np.ndarray) -> np.ndarray:
+        calls.append(phi.size)
+        return np.full(phi.size, 0.25)
+
+    mean, rays = _adaptive_in_angle(masses, DEFAULT_RAY_TOL)
+    assert mean == pytest.approx(0.25, abs=1e-15)
+    assert rays == 2 * FIRST_RAYS  # the first rays and one middle each: nothing to split
+    assert calls == [FIRST_RAYS, FIRST_RAYS]
+
+
+def test_adaptive_rays_gather_at_kinks() -> None:
+    # |cos(phi + 0.3)| has kinks (as where a ray grazes a boundary) between the first rays;
+    # its mean is 2 / pi.
+    seen: list[np.ndarray] = []
+
+    def masses(phi: np.ndarray) -> np.ndarray:
+        seen.append(phi)
+        return np.abs(np.cos(phi + 0.3))
+
+    mean, rays = _adaptive_in_angle(masses, DEFAULT_RAY_TOL)
+    phi = (np.concatenate(seen) + 0.3) % math.pi
+    near_kink = np.abs(phi - math.pi / 2) < 0.2
+    near_crest = np.minimum(phi, math.pi - phi) < 0.2
+    assert near_kink.sum() > near_crest.sum()
+    even = np.abs(np.cos(2.0 * math.pi * (np.arange(rays) + 0.5) / rays + 0.3)).mean()
+    assert abs(mean - 2.0 / math.pi) < abs(even - 2.0 / math.pi) / 4.0  # as many even rays
+
+
+def test_adaptive_rays_agree_with_many_even_ones(coarse_v_atlas: xf.AcceptanceAtlas) -> None:
+    design = coarse_v_atlas.design
+    cov = _cov(0.13, 0.05, -0.56)  # across the seated region's lateral edge
+    adaptive = xf.seat_probability(design, -0.72, 0.14, cov, atlas=coarse_v_atlas)
+    even = xf.seat_probability(design, -0.72, 0.14, cov, atlas=coarse_v_atlas, rays=1024)
+    assert 0.05 < even < 0.95
+    assert adaptive == pytest.approx(even, abs=2e-3)
+
+
+@pytest.mark.parametrize(
+    ("keyword", "value"),
+    [("rays", 3), ("rays", True), ("rays", 4097), ("ray_tol", 0.0), ("ray_tol", math.nan),
+     ("ray_tol", 1.5), ("ray_tol", "0.1")],
+)  # fmt: skip
+def test_quadrature_settings_are_checked(
+    coarse_v_atlas: xf.AcceptanceAtlas, keyword: str, value: object
+) -> None:
+    with pytest.raises(xf.XfaceValueError, match=f"{keyword} must be"):
+        xf.seat_probability(
+            coarse_v_atlas.design, 0.0, 0.0, np.eye(2) * 1e-4, atlas=coarse_v_atlas,
+            **{keyword: value},  # type: ignore[arg-type]
+        )  # fmt: skip
+
+
 def test_crossing_steps_narrow_the_boundaries(coarse_v_atlas: xf.AcceptanceAtlas) -> None:
     # The line integral of the test above: with no bisection a crossing is the middle of its
     # two samples (off by up to half their spacing); 8 steps bring it to the exact margins.
@@ -93,7 +149,7 @@ def test_crossing_steps_narrow_the_boundaries(coarse_v_atlas: xf.AcceptanceAtlas
         steps: abs(
             float(
                 xf.seat_probability(
-                    design, 0.0, 0.0, cov, atlas=coarse_v_atlas, crossing_steps=steps
+                    design, 0.0, 0.0, cov, atlas=coarse_v_atlas, rays=1024, crossing_steps=steps
                 )
             )
             - expected
