@@ -9,7 +9,9 @@ from this process:
 
 * publishes poses at ``--rate`` Hz for ``--duration`` s from a dedicated thread, cycling
   through poses that seat and poses that do not, each with a sensor's noise added (``--jitter-m``,
-  ``--jitter-rad``: no two alike) and stamped when it is sent;
+  ``--jitter-rad``: no two alike) and stamped when it is sent; with ``--covariance SIGMA_M
+  SIGMA_RAD`` as ``PoseWithCovarianceStamped`` on ``relative_pose_with_covariance``, whose
+  (x, yaw) block is diag(SIGMA_M^2, SIGMA_RAD^2), so every status carries a seat probability;
 * receives every ``prediction/status`` and takes the latency from the input stamp to the
   arrival of the status here (so it includes both DDS hops, the wait for the worker and the
   simulation);
@@ -105,6 +107,7 @@ def run_stress(
     jitter_m: float = 0.0,
     jitter_rad: float = 0.0,
     seed: int = 0,
+    covariance: tuple[float, float] | None = None,
 ) -> dict[str, Any]:
     """Run one stress session; returns the measurements (see the module docstring)."""
     env = dict(os.environ)
@@ -123,7 +126,7 @@ def run_stress(
 
     import rclpy
     from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
-    from geometry_msgs.msg import PoseStamped
+    from geometry_msgs.msg import PoseStamped, PoseWithCovarianceStamped
     from nav_msgs.srv import GetPlan
     from rclpy.context import Context
     from rclpy.executors import SingleThreadedExecutor
@@ -143,6 +146,7 @@ def run_stress(
     lock = threading.Lock()
     latencies_ms: list[float] = []
     compute_ms: list[float] = []
+    probabilities: list[float] = []
     outcomes: dict[str, int] = {}
     # Per outcome: the latency and simulation time of each status (a run's median moves with
     # the mix of outcomes the worker happens to pick under load: newest wins).
@@ -162,6 +166,8 @@ def run_stress(
             if "compute_time_ms" in values:
                 compute_ms.append(float(values["compute_time_ms"]))
                 comp_of.append(compute_ms[-1])
+            if values.get("seat_probability"):
+                probabilities.append(float(values["seat_probability"]))
 
     def on_diagnostics(array: DiagnosticArray) -> None:
         for status in array.status:
@@ -171,12 +177,19 @@ def run_stress(
 
     client_node.create_subscription(DiagnosticStatus, "prediction/status", on_status, RESULT_QOS)
     client_node.create_subscription(DiagnosticArray, "/diagnostics", on_diagnostics, 10)
-    pub = client_node.create_publisher(PoseStamped, "relative_pose", qos_profile_sensor_data)
+    if covariance is None:
+        pub = client_node.create_publisher(PoseStamped, "relative_pose", qos_profile_sensor_data)
+    else:
+        pub = client_node.create_publisher(
+            PoseWithCovarianceStamped, "relative_pose_with_covariance", qos_profile_sensor_data
+        )
     plan_client = client_node.create_client(GetPlan, "predict")
     spin = threading.Thread(target=executor.spin, daemon=True)
     spin.start()
 
-    result: dict[str, Any] = {"rate_hz": rate_hz, "duration_s": duration_s}
+    result: dict[str, Any] = {
+        "rate_hz": rate_hz, "duration_s": duration_s, "covariance_sigmas": covariance,
+    }  # fmt: skip
     try:
         deadline = time.monotonic() + 300.0  # a fresh checkout compiles the simulator first
         while not (plan_client.service_is_ready() and pub.get_subscription_count() > 0):
@@ -196,14 +209,22 @@ def run_stress(
         messages = []
         for i in range(round(rate_hz * duration_s)):
             x0_widths, theta0 = POSES[i % len(POSES)]
-            msg = PoseStamped()
-            msg.header.frame_id = "xface_base"
             start = DockStart(
                 x0_widths * WIDTH + rng.normal(0.0, jitter_m),
                 theta0 + rng.normal(0.0, jitter_rad),
                 Y_START,
             )
-            msg.pose = planar_to_pose(start_to_relative_pose(start))
+            pose = planar_to_pose(start_to_relative_pose(start))
+            if covariance is None:
+                msg = PoseStamped()
+                msg.pose = pose
+            else:
+                msg = PoseWithCovarianceStamped()
+                msg.pose.pose = pose
+                cov6 = [0.0] * 36
+                cov6[0], cov6[35] = covariance[0] ** 2, covariance[1] ** 2  # x, yaw
+                msg.pose.covariance = cov6
+            msg.header.frame_id = "xface_base"
             messages.append(msg)
 
         rss_start = rss_mib(node.pid)
@@ -262,6 +283,7 @@ def run_stress(
             last_diag = diagnostics[-1] if diagnostics else {}
             lat = list(latencies_ms)
             comp = list(compute_ms)
+            probs = list(probabilities)
             outs = dict(outcomes)
             per_outcome = {
                 name: {
@@ -288,6 +310,8 @@ def run_stress(
             latency_ms_p99=percentile(lat, 99.0),
             latency_ms_max=max(lat, default=math.nan),
             compute_ms_median=statistics.median(comp) if comp else math.nan,
+            statuses_with_probability=len(probs),
+            seat_probability_straddling=sum(1 for q in probs if 0.0 < q < 1.0),
             by_outcome=per_outcome,
             service_calls=len(service_times_ms) + service_failures,
             service_answered=len(service_times_ms),
@@ -340,6 +364,10 @@ def summary(r: dict[str, Any]) -> str:
             f"({r['statuses_received']} statuses)"
         ),
         f"simulation per pose: median {r['compute_ms_median']:.2f} ms",
+        (
+            f"statuses with a seat probability: {r['statuses_with_probability']} "
+            f"({r['seat_probability_straddling']} strictly between 0 and 1)"
+        ),
         "per outcome (statuses, median latency, median simulation): "
         + "; ".join(
             f"{name} {v['statuses']}, {v['latency_ms_median']:.2f} ms, "
@@ -390,6 +418,10 @@ def main(argv: list[str] | None = None) -> int:
         help="standard deviation of the noise added to each pose's theta0 (rad)",
     )  # fmt: skip
     parser.add_argument("--seed", type=int, default=0, help="seed of the noise")
+    parser.add_argument(
+        "--covariance", type=float, nargs=2, metavar=("SIGMA_M", "SIGMA_RAD"),
+        help="stream PoseWithCovarianceStamped with these standard deviations of x and yaw",
+    )  # fmt: skip
     parser.add_argument("--json", type=Path, help="also write the results here")
     parser.add_argument("--node-log", type=Path, help="write the node's output here")
     args = parser.parse_args(argv)
@@ -403,6 +435,7 @@ def main(argv: list[str] | None = None) -> int:
         jitter_m=args.jitter_m,
         jitter_rad=args.jitter_rad,
         seed=args.seed,
+        covariance=(args.covariance[0], args.covariance[1]) if args.covariance else None,
     )
     print(summary(result), flush=True)
     if args.json:

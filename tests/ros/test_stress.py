@@ -61,3 +61,28 @@ def test_node_survives_a_1khz_stream_and_accounts_for_every_pose(
     # The worker thread is named for the OS (xface_ros.threadname) and simulated the poses:
     # its CPU is told apart from the executor's.
     assert r["cpu_s_node"].get("xface_predictor", 0.0) > 0.0
+
+
+def test_a_stream_with_covariance_gets_a_seat_probability_in_every_status(
+    ros_domain_id: int, tmp_path: Path
+) -> None:
+    out = tmp_path / "stress.json"
+    log = tmp_path / "node.log"
+    run = subprocess.run(
+        [
+            sys.executable, str(ROOT / "scripts" / "ros_stress.py"), "--rate", "200",
+            "--duration", "2", "--domain-id", str(ros_domain_id), "--json", str(out),
+            "--node-log", str(log), "--covariance", "0.005", "0.1",
+        ],
+        cwd=ROOT, capture_output=True, text=True, timeout=600, check=False,
+    )  # fmt: skip
+    node_log = log.read_text() if log.exists() else ""
+    assert run.returncode == 0, run.stdout + run.stderr + node_log
+    r = json.loads(out.read_text())
+
+    assert r["covariance_sigmas"] == [0.005, 0.1]
+    assert r["node_input_errors"] == 0
+    assert r["statuses_received"] > 0
+    # The script waits for the atlas before streaming: every answer carries P(seat).
+    assert r["statuses_with_probability"] == r["statuses_received"]
+    assert r["node_received"] == r["node_predicted"] + r["node_dropped_newest_wins"]
