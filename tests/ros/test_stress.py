@@ -13,6 +13,7 @@ import json
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -25,22 +26,27 @@ ROOT = Path(__file__).resolve().parents[2]
 MAX_RSS_GROWTH_MIB = 64.0
 
 
-def test_node_survives_a_1khz_stream_and_accounts_for_every_pose(
-    ros_domain_id: int, tmp_path: Path
-) -> None:
+def _stress(domain_id: int, tmp_path: Path, *args: str) -> dict[str, Any]:
+    """Run scripts/ros_stress.py with ``args``; its JSON results (it must exit with 0)."""
     out = tmp_path / "stress.json"
     log = tmp_path / "node.log"
     run = subprocess.run(
         [
-            sys.executable, str(ROOT / "scripts" / "ros_stress.py"), "--rate", "1000",
-            "--duration", "3", "--domain-id", str(ros_domain_id), "--json", str(out),
-            "--node-log", str(log),
+            sys.executable, str(ROOT / "scripts" / "ros_stress.py"), *args,
+            "--domain-id", str(domain_id), "--json", str(out), "--node-log", str(log),
         ],
         cwd=ROOT, capture_output=True, text=True, timeout=600, check=False,
     )  # fmt: skip
     node_log = log.read_text() if log.exists() else ""
     assert run.returncode == 0, run.stdout + run.stderr + node_log
-    r = json.loads(out.read_text())
+    result: dict[str, Any] = json.loads(out.read_text())
+    return result
+
+
+def test_node_survives_a_1khz_stream_and_accounts_for_every_pose(
+    ros_domain_id: int, tmp_path: Path
+) -> None:
+    r = _stress(ros_domain_id, tmp_path, "--rate", "1000", "--duration", "3")
 
     assert r["node_alive_after_stream"]
     assert r["node_exit_code"] == 0
@@ -66,20 +72,9 @@ def test_node_survives_a_1khz_stream_and_accounts_for_every_pose(
 def test_a_stream_with_covariance_gets_a_seat_probability_in_every_status(
     ros_domain_id: int, tmp_path: Path
 ) -> None:
-    out = tmp_path / "stress.json"
-    log = tmp_path / "node.log"
-    run = subprocess.run(
-        [
-            sys.executable, str(ROOT / "scripts" / "ros_stress.py"), "--rate", "200",
-            "--duration", "2", "--domain-id", str(ros_domain_id), "--json", str(out),
-            "--node-log", str(log), "--covariance", "0.005", "0.1",
-        ],
-        cwd=ROOT, capture_output=True, text=True, timeout=600, check=False,
-    )  # fmt: skip
-    node_log = log.read_text() if log.exists() else ""
-    assert run.returncode == 0, run.stdout + run.stderr + node_log
-    r = json.loads(out.read_text())
-
+    r = _stress(
+        ros_domain_id, tmp_path, "--rate", "200", "--duration", "2", "--covariance", "0.005", "0.1"
+    )
     assert r["covariance_sigmas"] == [0.005, 0.1]
     assert r["node_input_errors"] == 0
     assert r["statuses_received"] > 0
