@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Seat probability: run time against error for the quadrature's settings.
 
-    .venv/bin/python scripts/bench_seat_probability.py [--queries 12] [--seed 0]
+    .venv/bin/python scripts/bench_seat_probability.py [--queries 12] [--seed 0] [--suggest]
 
 ``seat_probability`` integrates the Gaussian over rays, adaptive in angle (``ray_tol``, the
 default) or ``rays`` evenly spaced ones, and bisects every boundary crossing along a ray
@@ -12,7 +12,8 @@ reference with 1024 even rays and 10 crossing steps, and reports for each settin
 and the median |P - P_ref| and the median time, rays and simulations per query. The poses and
 covariances are drawn as in ``check_atlas.py`` (sigma log-uniform in [0.005, 0.32] D and rad,
 correlation in [-0.9, 0.9]), from seat-adjacent poses only (half of that script's draws), since
-queries inside one outcome cost one simulation at any setting.
+queries inside one outcome cost one simulation at any setting. ``--suggest`` times
+``suggest_approach`` at level 0.95 on such queries instead.
 """
 
 from __future__ import annotations
@@ -75,12 +76,36 @@ class Counting:
         return self._masses(*args)
 
 
+def time_suggestions(n: int, rng: np.random.Generator) -> None:
+    """Median and largest time of ``suggest_approach(..., level=0.95)`` with the query's
+    covariance, on ``n`` straddling queries (drawn as above) per design."""
+    for kind, h, rp in DESIGNS:
+        design = xf.make_face(kind, h, rp)
+        atlas = xf.build_atlas(design)
+        seconds = []
+        for x0, theta0, cov in straddling_queries(atlas, n, rng):
+            t0 = time.perf_counter()
+            xf.suggest_approach(design, x0, theta0, cov, level=0.95, atlas=atlas)
+            seconds.append(time.perf_counter() - t0)
+        print(
+            f"{kind} {h:g}/{rp:g}: suggest_approach over {n} queries: median "
+            f"{1e3 * statistics.median(seconds):.0f} ms, largest {1e3 * max(seconds):.0f} ms"
+        )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--queries", type=int, default=12, help="straddling queries per design")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument(
+        "--suggest", action="store_true",
+        help="instead: time suggest_approach (level 0.95) on straddling queries per design",
+    )  # fmt: skip
     args = parser.parse_args()
     rng = np.random.default_rng(args.seed)
+    if args.suggest:
+        time_suggestions(args.queries, rng)
+        return
     counter = Counting()
     probability.predict_batch = counter  # count the simulations of every call below
     probability._ray_masses = counter.masses  # and the rays
