@@ -93,7 +93,7 @@ def time_suggestions(n: int, rng: np.random.Generator) -> None:
         )
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--queries", type=int, default=12, help="straddling queries per design")
     parser.add_argument("--seed", type=int, default=0)
@@ -101,14 +101,24 @@ def main() -> None:
         "--suggest", action="store_true",
         help="instead: time suggest_approach (level 0.95) on straddling queries per design",
     )  # fmt: skip
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     rng = np.random.default_rng(args.seed)
     if args.suggest:
         time_suggestions(args.queries, rng)
-        return
+        return 0
     counter = Counting()
     probability.predict_batch = counter  # count the simulations of every call below
     probability._ray_masses = counter.masses  # and the rays
+    try:
+        work_precision(args.queries, rng, counter)
+    finally:
+        probability.predict_batch = counter._inner
+        probability._ray_masses = counter._masses
+    return 0
+
+
+def work_precision(n_queries: int, rng: np.random.Generator, counter: Counting) -> None:
+    """The table: every setting on ``n_queries`` straddling queries per design."""
     settings: list[Setting] = [(r, 0.0, s) for r in RAYS for s in STEPS]
     settings += [(None, t, probability.CROSSING_STEPS) for t in RAY_TOLS]
     errors: dict[Setting, list[float]] = {key: [] for key in settings}
@@ -120,7 +130,7 @@ def main() -> None:
         design = xf.make_face(kind, h, rp)
         atlas = xf.build_atlas(design)
         kept = 0
-        while kept < args.queries:
+        while kept < n_queries:
             x0, theta0, cov = straddling_queries(atlas, 1, rng)[0]
             x, c = x0, cov  # make_face's width is 1: x0 and cov are in D already
             ref = float(
@@ -176,4 +186,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(main())
