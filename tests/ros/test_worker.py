@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 import threading
+import time
 from collections.abc import Iterator
 from dataclasses import replace
 from pathlib import Path
@@ -17,6 +18,7 @@ import pytest
 
 from xface_core.frames import yaw_to_quaternion
 from xface_core.result import Prediction
+from xface_ros.atlas_keeper import AtlasKeeper
 from xface_ros.config import SPECS, NodeConfig, config_from_values
 from xface_ros.decision import PoseInput, Predicted, Rejected, Verdict
 from xface_ros.latest import Received
@@ -284,6 +286,24 @@ def test_stop_is_idempotent(config: NodeConfig) -> None:
     worker.stop(timeout_s=WAIT_S)
     worker.stop(timeout_s=WAIT_S)
     assert not worker._thread.is_alive()
+
+
+def test_stop_waits_for_an_atlas_build_still_running(config: NodeConfig) -> None:
+    # The build starts after the warm-up; a process must not exit (and rclpy not go) while it
+    # runs on its daemon thread.
+    started, finished = threading.Event(), threading.Event()
+
+    def slow_build(design: Any, physics: Any, cache_dir: str) -> Any:
+        started.set()
+        time.sleep(0.3)
+        finished.set()
+        raise RuntimeError("no atlas needed here")
+
+    worker = make_worker(config, Published(), atlas=AtlasKeeper(FakeLogger(), build=slow_build))
+    worker.start()
+    assert started.wait(timeout=WAIT_S)
+    worker.stop(timeout_s=WAIT_S)
+    assert finished.is_set()
 
 
 WARM_UP_PROBE = """
