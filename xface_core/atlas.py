@@ -29,6 +29,7 @@ import math
 import threading
 import time
 import zipfile
+from collections.abc import Callable
 from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
@@ -36,7 +37,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from .atlas_flips import bisect_every_flip
+from .atlas_flips import bisect_every_flip, check_cancel
 from .codes import Outcome
 from .errors import XfaceValueError
 from .geometry import FaceDesign
@@ -375,6 +376,7 @@ def build_atlas(
     cache_dir: str | Path | None = None,
     threads: int | None = None,
     every_flip: bool = False,
+    cancel: Callable[[], bool] | None = None,
 ) -> AcceptanceAtlas:
     """Build (or load from ``cache_dir``) the acceptance atlas of a design and physics.
 
@@ -410,6 +412,11 @@ def build_atlas(
         searched (docs/atlas.md). A cached atlas that lacks some is completed and saved
         again. Default False: the flips are then bisected lazily, as queries come by (seat
         probabilities never need them).
+    cancel : callable, optional
+        Asked before each batch of simulations (the build's longest is a fraction of a
+        second); when it returns True the build stops with :class:`~.errors.Cancelled` and
+        nothing is saved. For a caller that may stop wanting the atlas (the ROS node at
+        shutdown or after a design change).
 
     Examples
     --------
@@ -448,7 +455,7 @@ def build_atlas(
         except (OSError, ValueError, KeyError, zipfile.BadZipFile):
             pass  # unreadable (truncated by a crash, or foreign): rebuilt and overwritten
         else:
-            if every_flip and bisect_every_flip(loaded, threads=threads):
+            if every_flip and bisect_every_flip(loaded, threads=threads, cancel=cancel):
                 loaded.save(path)
             return loaded
 
@@ -456,7 +463,7 @@ def build_atlas(
     x_d = np.arange(-nx, nx + 1).astype(np.float64) * dx
     th = np.arange(-nt, nt + 1).astype(np.float64) * dt
     t0 = time.perf_counter()
-    outcomes, simulated = _refine(design, x_d, th, coarse_stride, phys, threads)
+    outcomes, simulated = _refine(design, x_d, th, coarse_stride, phys, threads, cancel)
     atlas = AcceptanceAtlas(
         design=design,
         physics=phys,
@@ -468,7 +475,7 @@ def build_atlas(
         build_seconds=time.perf_counter() - t0,
     )
     if every_flip:
-        bisect_every_flip(atlas, threads=threads)
+        bisect_every_flip(atlas, threads=threads, cancel=cancel)
         atlas = replace(atlas, build_seconds=time.perf_counter() - t0)  # the flips as well
     if path is not None:
         atlas.save(path)
@@ -530,13 +537,16 @@ def _refine(
     stride: int,
     physics: Physics,
     threads: int | None,
+    cancel: Callable[[], bool] | None = None,
 ) -> tuple[Int8Array, npt.NDArray[np.bool_]]:
-    """Outcomes on the grid by boundary-following refinement (see the module docstring)."""
+    """Outcomes on the grid by boundary-following refinement (see the module docstring);
+    ``cancel`` is asked before each batch (:func:`~.atlas_flips.check_cancel`)."""
     shape = (x_d.size, th.size)
     out = np.full(shape, -1, dtype=np.int8)
     todo = np.zeros(shape, dtype=bool)
     todo[::stride, ::stride] = True
     simulated = todo.copy()
+    check_cancel(cancel)
     _simulate(design, x_d, th, todo, out, physics, threads)
     s = stride
     while s > 1:
@@ -559,6 +569,7 @@ def _refine(
         todo = np.zeros(shape, dtype=bool)
         todo[::half, ::half] = True
         todo &= near & (out < 0)
+        check_cancel(cancel)
         _simulate(design, x_d, th, todo, out, physics, threads)
         simulated |= todo
         # Nodes of untouched blocks take their block's common corner outcome.

@@ -18,12 +18,13 @@ refinement simulates every block whose corners disagree), never filled.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Protocol
 
 import numpy as np
 import numpy.typing as npt
 
+from .errors import Cancelled
 from .geometry import FaceDesign
 from .margins import ANGLE_RESOLUTION, LATERAL_RESOLUTION
 from .physics import Physics
@@ -104,6 +105,7 @@ def grid_flips(
     keys: Sequence[FlipKey],
     resolution: tuple[float, float],
     threads: int | None = None,
+    cancel: Callable[[], bool] | None = None,
 ) -> list[tuple[float, float]]:
     """Brackets ``(lo, hi)`` of the flips on grid-line segments (D along x0, rad along
     theta0), each at most ``resolution[axis]`` wide; ``lo`` has the outcome of the segment's
@@ -112,6 +114,8 @@ def grid_flips(
 
     A segment whose two nodes have the same outcome has no flip to find: asking for one is a
     programming error (``ValueError``). ``threads``: of each batch (default one per core).
+    ``cancel``: asked before each batch; True stops with :class:`~.errors.Cancelled` (the
+    flips finished so far are kept).
     """
     store = atlas.flips
     found: dict[FlipKey, tuple[float, float]] = {}
@@ -129,6 +133,7 @@ def grid_flips(
         todo.append((key, lo, hi, fixed, code))
     design = atlas.design
     while todo:
+        check_cancel(cancel)
         n = len(todo)
         xs, ts = np.empty(n), np.empty(n)
         for j, (key, lo, hi, fixed, _) in enumerate(todo):
@@ -164,10 +169,11 @@ def bisect_every_flip(
     atlas: GridAtlas,
     resolution: tuple[float, float] = LINE_RESOLUTION,
     threads: int | None = None,
+    cancel: Callable[[], bool] | None = None,
 ) -> int:
     """Bisect the flip of every boundary segment of the atlas's grid lines not known yet
     (:func:`boundary_segments`), all in one batch per bisection step, into ``atlas.flips``;
-    how many were bisected.
+    how many were bisected. ``cancel`` as for :func:`grid_flips`.
 
     Then every margins query on the atlas interpolates its flips and confirms them with
     eight simulations, the first query near a boundary too, instead of searching along its
@@ -179,5 +185,12 @@ def bisect_every_flip(
     """
     todo = [key for key in boundary_segments(atlas.outcomes) if atlas.flips.get(key) is None]
     if todo:
-        grid_flips(atlas, todo, resolution, threads)
+        grid_flips(atlas, todo, resolution, threads, cancel)
     return len(todo)
+
+
+def check_cancel(cancel: Callable[[], bool] | None) -> None:
+    """Raise :class:`~.errors.Cancelled` when ``cancel`` is given and says so (between two
+    batches of a long computation)."""
+    if cancel is not None and cancel():
+        raise Cancelled("cancelled by the caller")

@@ -6,11 +6,23 @@ Every exception derives from :class:`XfaceError`; the value errors also derive f
 
 from __future__ import annotations
 
-__all__ = ["FaceFileError", "GeometryError", "InputError", "XfaceError", "XfaceValueError"]
+__all__ = [
+    "Cancelled",
+    "FaceFileError",
+    "GeometryError",
+    "InputError",
+    "XfaceError",
+    "XfaceValueError",
+]
 
 
 class XfaceError(Exception):
     """Base class of every error raised by xface_core."""
+
+
+class Cancelled(XfaceError):
+    """A long computation stopped between two of its batches because its caller's ``cancel``
+    callback said so (:func:`~xface_core.atlas.build_atlas`)."""
 
 
 class XfaceValueError(XfaceError, ValueError):

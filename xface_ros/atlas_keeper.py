@@ -15,6 +15,7 @@ from collections.abc import Callable, Hashable
 from typing import TYPE_CHECKING
 
 from xface_core.atlas import AcceptanceAtlas, build_atlas
+from xface_core.errors import Cancelled
 from xface_core.geometry import FaceDesign
 from xface_core.physics import Physics
 from xface_ros.config import NodeConfig
@@ -25,7 +26,9 @@ if TYPE_CHECKING:
 
 __all__ = ["AtlasKeeper"]
 
-Builder = Callable[[FaceDesign, Physics, str], AcceptanceAtlas]
+#: Builds an atlas: design, physics, cache directory ("" for none), and a callback that says
+#: when nobody wants the atlas any more (the builder stops with ``Cancelled`` then).
+Builder = Callable[[FaceDesign, Physics, str, Callable[[], bool]], AcceptanceAtlas]
 
 
 def _key(config: NodeConfig) -> Hashable:
@@ -38,7 +41,8 @@ class AtlasKeeper:
 
     :meth:`get` is cheap and never blocks: it returns the ready atlas for ``config``, or None
     and (for a design not asked for before) starts a build in the background. Only the newest
-    request is kept; a build that finishes for an older design is dropped.
+    request is kept: a build for an older design stops at its next batch of simulations, and
+    :meth:`stop` stops them all.
     """
 
     def __init__(self, logger: Logger, *, build: Builder | None = None) -> None:
@@ -48,6 +52,7 @@ class AtlasKeeper:
         self._wanted: Hashable | None = None
         self._atlas: AcceptanceAtlas | None = None
         self._state = "off"
+        self._stopping = False
         self._threads: list[threading.Thread] = []
 
     @property
@@ -62,6 +67,8 @@ class AtlasKeeper:
         with self._lock:
             if key == self._wanted:
                 return self._atlas
+            if self._stopping:
+                return None
             self._wanted, self._atlas, self._state = key, None, "building"
         thread = threading.Thread(
             target=self._run, args=(key, config), name="xface_atlas", daemon=True
@@ -72,29 +79,49 @@ class AtlasKeeper:
         return None
 
     def _build_or_load(
-        self, design: FaceDesign, physics: Physics, cache_dir: str
+        self, design: FaceDesign, physics: Physics, cache_dir: str, cancel: Callable[[], bool]
     ) -> AcceptanceAtlas:
         """Build the atlas with every grid-line flip bisected (a planner's first question
         near a boundary then takes eight confirmations, not a search), or load it from
         ``cache_dir`` (empty: no cache). A cache that cannot be written costs the next start
         its build, not this one its atlas."""
         if not cache_dir:
-            return build_atlas(design, physics=physics, every_flip=True)
+            return build_atlas(design, physics=physics, every_flip=True, cancel=cancel)
         try:
-            return build_atlas(design, physics=physics, cache_dir=cache_dir, every_flip=True)
+            return build_atlas(
+                design, physics=physics, cache_dir=cache_dir, every_flip=True, cancel=cancel
+            )
         except OSError as exc:
             self._logger.warning(f"atlas cache {cache_dir!r} not usable, atlas not kept: {exc}")
-            return build_atlas(design, physics=physics, every_flip=True)
+            return build_atlas(design, physics=physics, every_flip=True, cancel=cancel)
 
     def join(self, timeout_s: float = 60.0) -> None:
-        """Wait for the builds started so far (tests, shutdown)."""
+        """Wait for the builds started so far (tests)."""
         for thread in self._threads:
             thread.join(timeout=timeout_s)
+
+    def stop(self, timeout_s: float = 60.0) -> None:
+        """Stop every build at its next batch of simulations, start no more, and wait for
+        them (shutdown: a build left running on its daemon thread would run compiled code
+        and log through the node while rclpy and the interpreter are torn down)."""
+        with self._lock:
+            self._stopping = True
+        self.join(timeout_s)
+
+    def _cancelled(self, key: Hashable) -> bool:
+        """Nobody wants the atlas of ``key`` any more: a newer design, or stopping."""
+        with self._lock:
+            return self._stopping or key != self._wanted
 
     def _run(self, key: Hashable, config: NodeConfig) -> None:
         name_os_thread(threading.current_thread().name)
         try:
-            atlas = self._build(config.design, config.physics, config.atlas_cache_dir)
+            atlas = self._build(
+                config.design, config.physics, config.atlas_cache_dir,
+                lambda: self._cancelled(key),
+            )  # fmt: skip
+        except Cancelled:
+            return  # a newer design is being built, or the node stops
         except Exception as exc:  # margins fall back to the exact search: never fatal
             with self._lock:
                 if key == self._wanted:

@@ -166,19 +166,19 @@ class PredictionWorker:
         )
 
     def stop(self, timeout_s: float = 30.0) -> None:
-        """Stop the thread and wait up to ``timeout_s`` for it and for an atlas build still
-        running (idempotent)."""
+        """Stop the thread and an atlas build still running, and wait up to ``timeout_s``
+        for each (idempotent)."""
         self._stop.set()
         self.slot.close()
         if self._thread.is_alive():
             self._thread.join(timeout=timeout_s)
         if self.atlas is not None:
-            # A build starts after the warm-up and takes about a second. Left running on its
-            # daemon thread, it runs compiled code and logs through the node while rclpy and
-            # the interpreter are torn down. A managed node shut down right after its
-            # configure (tests/ros/test_node_managed.py, whose node never saw its build end)
-            # died with SIGSEGV on SIGINT once in CI; not reproduced in 24 runs since.
-            self.atlas.join(timeout_s)
+            # A build starts after the warm-up. Left running on its daemon thread, it runs
+            # compiled code and logs through the node while rclpy and the interpreter are
+            # torn down. A managed node shut down right after its configure
+            # (tests/ros/test_node_managed.py, whose node never saw its build end) died with
+            # SIGSEGV on SIGINT once in CI; not reproduced in 24 runs since.
+            self.atlas.stop(timeout_s)
 
     # --- the worker thread ------------------------------------------------------------------
 

@@ -12,6 +12,8 @@ import pytest
 
 import xface_core as xf
 from xface_core.atlas import build_atlas
+from xface_core.atlas_flips import bisect_every_flip
+from xface_core.errors import Cancelled
 
 #: Small grids for the cache tests (the shared coarse atlas is the coarse_v_atlas fixture).
 SMALL = {"lateral_step": 1 / 16, "angle_step": math.pi / 32, "angle_range": math.pi / 2}
@@ -205,3 +207,37 @@ def test_build_seconds_include_the_flips_when_every_flip_is_bisected(
     atlas = build_atlas(xf.v_face(0.5, 1.0), **SMALL, every_flip=True)
     assert atlas.build_seconds >= 0.3
     assert len(atlas.flips) > 0
+
+
+def test_a_cancelled_build_stops_between_batches_and_saves_nothing(tmp_path: Path) -> None:
+    asked: list[int] = []
+
+    def cancel() -> bool:
+        asked.append(1)
+        return len(asked) > 2  # two batches run, the third is not started
+
+    with pytest.raises(Cancelled):
+        build_atlas(
+            xf.v_face(0.5, 1.0), lateral_step=1 / 16, angle_step=0.05, cache_dir=tmp_path,
+            every_flip=True, cancel=cancel,
+        )  # fmt: skip
+    assert len(asked) == 3
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_build_never_cancelled_is_the_same_atlas() -> None:
+    d = xf.v_face(0.5, 1.0)
+    plain = build_atlas(d, lateral_step=1 / 16, angle_step=0.05, every_flip=True)
+    asked = build_atlas(
+        d, lateral_step=1 / 16, angle_step=0.05, every_flip=True, cancel=lambda: False
+    )
+    assert np.array_equal(plain.outcomes, asked.outcomes)
+    assert len(plain.flips) == len(asked.flips)
+
+
+def test_cancelled_flip_bisection_keeps_no_partial_flips() -> None:
+    atlas = build_atlas(xf.v_face(0.5, 1.0), lateral_step=1 / 16, angle_step=0.05)
+    before = len(atlas.flips)
+    with pytest.raises(Cancelled):
+        bisect_every_flip(atlas, cancel=lambda: True)
+    assert len(atlas.flips) == before

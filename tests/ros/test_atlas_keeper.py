@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 import sys
 import threading
+import time
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -13,6 +14,7 @@ from typing import Any
 import pytest
 
 import xface_core as xf
+from xface_core.errors import Cancelled
 from xface_ros.atlas_keeper import AtlasKeeper
 from xface_ros.config import SPECS, ConfigError, NodeConfig, config_from_values
 from xface_ros.decision import PoseInput, evaluate_streamed
@@ -35,7 +37,9 @@ def config() -> NodeConfig:
     return config_from_values({spec.name: spec.default for spec in SPECS})
 
 
-def _coarse(design: xf.FaceDesign, physics: xf.Physics, cache_dir: str = "") -> xf.AcceptanceAtlas:
+def _coarse(
+    design: xf.FaceDesign, physics: xf.Physics, cache_dir: str = "", cancel: Any = None
+) -> xf.AcceptanceAtlas:
     return xf.build_atlas(design, physics=physics, lateral_step=1 / 16, angle_step=0.05)
 
 
@@ -64,7 +68,9 @@ def test_the_atlas_is_built_in_the_background_and_then_used(config: NodeConfig) 
 def test_the_build_runs_on_a_thread_named_for_the_os(config: NodeConfig) -> None:
     names: list[str] = []
 
-    def build(design: xf.FaceDesign, physics: xf.Physics, cache_dir: str) -> xf.AcceptanceAtlas:
+    def build(
+        design: xf.FaceDesign, physics: xf.Physics, cache_dir: str, cancel: Any
+    ) -> xf.AcceptanceAtlas:
         comm = Path(f"/proc/self/task/{threading.get_native_id()}/comm")
         names.append(comm.read_text().strip())
         return _coarse(design, physics)
@@ -90,7 +96,9 @@ def test_a_design_change_starts_a_new_build_and_drops_the_old_atlas(config: Node
 def test_a_build_finished_for_an_older_design_is_not_used(config: NodeConfig) -> None:
     release = threading.Event()
 
-    def slow(design: xf.FaceDesign, physics: xf.Physics, cache_dir: str) -> xf.AcceptanceAtlas:
+    def slow(
+        design: xf.FaceDesign, physics: xf.Physics, cache_dir: str, cancel: Any
+    ) -> xf.AcceptanceAtlas:
         release.wait(30.0)
         return _coarse(design, physics)
 
@@ -106,7 +114,9 @@ def test_a_build_finished_for_an_older_design_is_not_used(config: NodeConfig) ->
 
 
 def test_a_failed_build_is_logged_and_margins_stay_exact(config: NodeConfig) -> None:
-    def broken(design: xf.FaceDesign, physics: xf.Physics, cache_dir: str) -> xf.AcceptanceAtlas:
+    def broken(
+        design: xf.FaceDesign, physics: xf.Physics, cache_dir: str, cancel: Any
+    ) -> xf.AcceptanceAtlas:
         raise MemoryError("no room")
 
     log = Log()
@@ -250,3 +260,62 @@ def test_a_restart_reads_every_flip_from_the_cache(config: NodeConfig, tmp_path:
     _, loaded = _ready(cached)  # the node restarted
     assert loaded.build_seconds == 0.0
     assert len(loaded.flips) == len(built.flips) == len(boundary_segments(loaded.outcomes))
+
+
+def _wait_for_cancel(cancel: Any) -> None:
+    """What a long build does between its batches: go on until nobody wants the atlas."""
+    deadline = time.monotonic() + 30.0
+    while not cancel():
+        assert time.monotonic() < deadline, "never cancelled"
+        time.sleep(0.005)
+    raise Cancelled("cancelled by the caller")
+
+
+def test_stop_cancels_a_running_build_and_starts_no_more(config: NodeConfig) -> None:
+    started = threading.Event()
+
+    def endless(
+        design: xf.FaceDesign, physics: xf.Physics, cache_dir: str, cancel: Any
+    ) -> xf.AcceptanceAtlas:
+        started.set()
+        _wait_for_cancel(cancel)
+        raise AssertionError("unreachable")
+
+    log = Log()
+    keeper = AtlasKeeper(log, build=endless)
+    keeper.get(config)
+    assert started.wait(30.0)
+    keeper.stop(timeout_s=30.0)
+    assert not any(t.is_alive() for t in keeper._threads)
+    assert not any("failed" in line for line in log.lines)  # a cancelled build is no failure
+    threads = len(keeper._threads)
+    other = replace(config, design=xf.make_face("V", 0.5, 1.0, width=config.width_m))
+    assert keeper.get(other) is None
+    assert len(keeper._threads) == threads
+
+
+def test_a_newer_design_cancels_the_older_build(config: NodeConfig) -> None:
+    started = threading.Event()
+    cancelled: list[str] = []
+
+    def build(
+        design: xf.FaceDesign, physics: xf.Physics, cache_dir: str, cancel: Any
+    ) -> xf.AcceptanceAtlas:
+        if design.kind == config.design.kind:
+            started.set()
+            try:
+                _wait_for_cancel(cancel)
+            finally:
+                cancelled.append(design.kind)
+        return _coarse(design, physics)
+
+    keeper = AtlasKeeper(Log(), build=build)
+    keeper.get(config)
+    assert started.wait(30.0)
+    other = replace(config, design=xf.make_face("V", 0.5, 1.0, width=config.width_m))
+    keeper.get(other)
+    keeper.join()
+    assert cancelled == [config.design.kind]
+    atlas = keeper.get(other)
+    assert atlas is not None
+    assert atlas.design.kind == "V"

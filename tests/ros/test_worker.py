@@ -293,7 +293,7 @@ def test_stop_waits_for_an_atlas_build_still_running(config: NodeConfig) -> None
     # runs on its daemon thread.
     started, finished = threading.Event(), threading.Event()
 
-    def slow_build(design: Any, physics: Any, cache_dir: str) -> Any:
+    def slow_build(design: Any, physics: Any, cache_dir: str, cancel: Any) -> Any:
         started.set()
         time.sleep(0.3)
         finished.set()
