@@ -24,6 +24,7 @@ import statistics
 import time
 
 import numpy as np
+from check_atlas import near_seated_poses, random_covariance  # this folder
 
 import xface_core as xf
 from xface_core import probability
@@ -42,18 +43,12 @@ DEFAULT: Setting = (None, probability.DEFAULT_RAY_TOL, probability.CROSSING_STEP
 def straddling_queries(
     atlas: xf.AcceptanceAtlas, n: int, rng: np.random.Generator
 ) -> list[tuple[float, float, np.ndarray]]:
-    """``n`` queries (x0 in D, theta0, covariance in D and rad) near SEATED nodes."""
-    inside = np.abs(atlas.theta0) <= math.pi / 2
-    i, k = np.nonzero(atlas.outcomes[:, inside] == xf.Outcome.SEATED)
+    """``n`` queries (x0 in D, theta0, covariance in D and rad) near SEATED nodes, drawn by
+    ``check_atlas.py``'s own functions."""
     out = []
     for _ in range(n):
-        j = int(rng.integers(0, i.size))
-        x0 = float(atlas.x0[i[j]] + rng.uniform(-3, 3) * atlas.lateral_step)
-        theta0 = float(atlas.theta0[inside][k[j]] + rng.uniform(-3, 3) * atlas.angle_step)
-        sx, st = 10 ** rng.uniform(-2.3, -0.5, 2)
-        rho = rng.uniform(-0.9, 0.9)
-        cov = np.array([[sx * sx, rho * sx * st], [rho * sx * st, st * st]])
-        out.append((x0, theta0, cov))
+        ((x0, theta0),) = near_seated_poses(atlas, 1, rng)
+        out.append((float(x0), float(theta0), random_covariance(rng)))
     return out
 
 

@@ -44,22 +44,37 @@ def random_poses(
     atlas: xf.AcceptanceAtlas, n: int, rng: np.random.Generator
 ) -> npt.NDArray[np.float64]:
     """(n, 2) poses (x0 in D, theta0): half uniform over |x0| <= L + 0.1 D, |theta0| <= pi/2,
-    half near SEATED nodes (within 3 grid steps), where the boundaries are."""
+    half near SEATED nodes (:func:`near_seated_poses`), where the boundaries are."""
     half = n // 2
     reach = atlas.design.mated_distance + 0.1
     uniform = np.column_stack(
         (rng.uniform(-reach, reach, half), rng.uniform(-math.pi / 2, math.pi / 2, half))
     )
+    return np.vstack((uniform, near_seated_poses(atlas, n - half, rng)))
+
+
+def near_seated_poses(
+    atlas: xf.AcceptanceAtlas, n: int, rng: np.random.Generator
+) -> npt.NDArray[np.float64]:
+    """(n, 2) poses (x0 in D, theta0) within 3 grid steps of SEATED nodes, |theta0| <= pi/2
+    at the node."""
     inside = np.abs(atlas.theta0) <= math.pi / 2
     i, k = np.nonzero(atlas.outcomes[:, inside] == xf.Outcome.SEATED)
-    pick = rng.integers(0, i.size, n - half)
-    near = np.column_stack(
+    pick = rng.integers(0, i.size, n)
+    return np.column_stack(
         (
-            atlas.x0[i[pick]] + rng.uniform(-3, 3, n - half) * atlas.lateral_step,
-            atlas.theta0[inside][k[pick]] + rng.uniform(-3, 3, n - half) * atlas.angle_step,
+            atlas.x0[i[pick]] + rng.uniform(-3, 3, n) * atlas.lateral_step,
+            atlas.theta0[inside][k[pick]] + rng.uniform(-3, 3, n) * atlas.angle_step,
         )
     )
-    return np.vstack((uniform, near))
+
+
+def random_covariance(rng: np.random.Generator) -> npt.NDArray[np.float64]:
+    """A 2 x 2 covariance of (x0 in D, theta0): standard deviations log-uniform in
+    [0.005, 0.32] (D, rad), correlation uniform in [-0.9, 0.9]."""
+    sx, st = 10 ** rng.uniform(-2.3, -0.5, 2)
+    rho = rng.uniform(-0.9, 0.9)
+    return np.array([[sx * sx, rho * sx * st], [rho * sx * st, st * st]])
 
 
 def _values(m: xf.Margins) -> npt.NDArray[np.float64]:
@@ -112,9 +127,9 @@ def check_probability(n_queries: int, n_samples: int, rng: np.random.Generator) 
         design = xf.make_face(kind, h, rp)
         atlas = xf.build_atlas(design)
         for x0, theta0 in random_poses(atlas, per, rng):
-            sx, st = 10 ** rng.uniform(-2.3, -0.5, 2)  # 0.005 .. 0.32 (D, rad)
-            rho = rng.uniform(-0.9, 0.9)
-            cov = np.array([[sx * sx, rho * sx * st], [rho * sx * st, st * st]])
+            cov = random_covariance(rng)
+            sx, st = math.sqrt(cov[0, 0]), math.sqrt(cov[1, 1])
+            rho = cov[0, 1] / (sx * st)
             t0 = time.perf_counter()
             p = float(xf.seat_probability(design, x0, theta0, cov, atlas=atlas))
             elapsed = time.perf_counter() - t0

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import threading
 from collections.abc import Callable, Hashable
+from functools import partial
 from typing import TYPE_CHECKING
 
 from xface_core.atlas import AcceptanceAtlas, build_atlas
@@ -85,18 +86,17 @@ class AtlasKeeper:
         near a boundary then takes eight confirmations, not a search), or load it from
         ``cache_dir`` (empty: no cache). A cache that cannot be written costs the next start
         its build, not this one its atlas."""
+        build = partial(build_atlas, design, physics=physics, every_flip=True, cancel=cancel)
         if not cache_dir:
-            return build_atlas(design, physics=physics, every_flip=True, cancel=cancel)
+            return build()
         try:
-            return build_atlas(
-                design, physics=physics, cache_dir=cache_dir, every_flip=True, cancel=cancel
-            )
+            return build(cache_dir=cache_dir)
         except OSError as exc:
             self._logger.warning(f"atlas cache {cache_dir!r} not usable, atlas not kept: {exc}")
-            return build_atlas(design, physics=physics, every_flip=True, cancel=cancel)
+            return build()
 
     def join(self, timeout_s: float = 60.0) -> None:
-        """Wait for the builds started so far (tests)."""
+        """Wait for the builds started so far (tests, :meth:`stop`)."""
         for thread in self._threads:
             thread.join(timeout=timeout_s)
 
