@@ -38,6 +38,26 @@ class Manager:
     def state(self) -> int:
         return int(self.client.call(self.get, GetState.Request()).current_state.id)
 
+    def wait_until_answering(self, timeout_s: float = GRAPH_TIMEOUT_S) -> None:
+        """Ask ``get_state`` until a reply comes. A request sent just after a service
+        appears can lose its reply: ROS 2's service discovery race (the node's response
+        writer has not yet matched our response reader; rmw_fastrtps waits 100 ms for it,
+        which a loaded machine can exceed: CI lost the first ``get_state`` reply so once).
+        The node is started without waiting for its warm-up, so the tests' first call comes
+        right then. ``GetState`` changes nothing, so it is safe to send again; a transition
+        is not, which is why this runs before any."""
+        assert self.get.wait_for_service(timeout_sec=timeout_s)
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline:
+            future = self.get.call_async(GetState.Request())
+            resend = time.monotonic() + 2.0
+            while time.monotonic() < resend:
+                if future.done():
+                    return
+                time.sleep(0.01)
+            self.get.remove_pending_request(future)
+        pytest.fail(f"get_state did not answer within {timeout_s:g} s")
+
 
 def wait_until(condition: Any, timeout_s: float = GRAPH_TIMEOUT_S) -> None:
     deadline = time.monotonic() + timeout_s
@@ -49,7 +69,9 @@ def wait_until(condition: Any, timeout_s: float = GRAPH_TIMEOUT_S) -> None:
 @pytest.fixture
 def managed(launch: Any) -> tuple[Any, Manager]:
     running = launch(wait=False, node_args=["--lifecycle"], compute_margins=False)
-    return running, Manager(running.client)
+    manager = Manager(running.client)
+    manager.wait_until_answering()
+    return running, manager
 
 
 def test_goes_through_every_transition_with_the_standard_services(
