@@ -9,18 +9,22 @@ For a planner that can still correct before the faces touch. Two questions, one 
   norm), after which the pose seats with margins at least ``min_lateral`` and ``min_angle``
   on both sides.
 
-Candidates come from the atlas (the seated indicator smoothed by the Gaussian, or the
-seated runs along rows and columns), nearest first; each is confirmed exactly (probability
-or margins at that pose) and the correction is then shortened by bisection along the
-straight line from the estimate while the requirement still holds. The result is a pose
-that meets the requirement by exact computation; it is the smallest one among the tried
-candidates' segments, not a proven global minimum.
+Candidates come from the atlas (the seated indicator smoothed by the Gaussian, in windows
+around the estimate growing to the whole grid; or the seated runs along rows and columns),
+nearest first; each is confirmed exactly (probability or margins at that pose) and the
+correction is then shortened along the straight line from the estimate while the
+requirement still holds (the probability's crossing by regula falsi on its probit, the
+margins' by bisection), to 1/64 of the segment. The result is a pose that meets the
+requirement by exact computation; it is the smallest one among the tried candidates'
+segments, not a proven global minimum.
 """
 
 from __future__ import annotations
 
+import itertools
 import math
-from collections.abc import Callable
+import statistics
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -43,9 +47,13 @@ FloatArray = npt.NDArray[np.float64]
 #: Default margins required without a covariance: 0.05 D and 0.05 rad (about 3 degrees).
 DEFAULT_MIN_LATERAL = 0.05
 DEFAULT_MIN_ANGLE = 0.05
-#: Candidates confirmed before giving up, and bisection steps along the segment.
+#: Candidates confirmed before giving up, and bisection steps along the segment (its
+#: resolution: 1/64 of the segment; the probability's secant stops at the same width).
 MAX_CANDIDATES = 6
 LINE_STEPS = 6
+#: Radii (standard deviations) of the windows around the estimate in which candidates are
+#: looked for before the whole atlas is smoothed.
+WINDOW_RADII = (8.0, 32.0)
 
 
 @dataclass(frozen=True)
@@ -70,16 +78,28 @@ class ApproachSuggestion:
     """Margins at the corrected pose (without a covariance)."""
 
 
-def _smoothed_seated(atlas: AcceptanceAtlas, cov_d: FloatArray) -> FloatArray:
+def _smoothed_seated(
+    atlas: AcceptanceAtlas, cov_d: FloatArray, rows: slice, cols: slice
+) -> FloatArray:
     """The seated indicator of the atlas convolved with the Gaussian (sampled on the grid,
-    by FFT): an estimate of the seat probability at every node."""
-    seated = (atlas.outcomes == Outcome.SEATED).astype(np.float64)
+    by FFT) at the nodes ``[rows, cols]``: an estimate of the seat probability there.
+
+    Only the window and a kernel's half-width around it enter the convolution (outside the
+    grid counts as not seated, as over the whole grid), so a window costs what its size does:
+    the whole node atlas took 25-60 ms, a window of a few sigma well under a millisecond."""
     g = cov_d / np.outer(
         [atlas.lateral_step, atlas.angle_step], [atlas.lateral_step, atlas.angle_step]
     )
-    half = [min(math.ceil(4.0 * math.sqrt(g[a, a])), seated.shape[a] - 1) for a in (0, 1)]
+    shape_all = atlas.outcomes.shape
+    half = [min(math.ceil(4.0 * math.sqrt(g[a, a])), shape_all[a] - 1) for a in (0, 1)]
+    lo = [max(w.start - h, 0) for w, h in zip((rows, cols), half, strict=True)]
+    hi = [min(w.stop + h, n) for w, h, n in zip((rows, cols), half, shape_all, strict=True)]
+    seated = (atlas.outcomes[lo[0] : hi[0], lo[1] : hi[1]] == Outcome.SEATED).astype(np.float64)
+    # Where the window starts inside the block that was convolved.
+    i0, k0 = rows.start - lo[0], cols.start - lo[1]
+    n0, n1 = rows.stop - rows.start, cols.stop - cols.start
     if half[0] == 0 and half[1] == 0:
-        return np.asarray(seated, dtype=np.float64)
+        return np.asarray(seated[i0 : i0 + n0, k0 : k0 + n1])
     i = np.arange(-half[0], half[0] + 1)[:, None].astype(np.float64)
     k = np.arange(-half[1], half[1] + 1)[None, :].astype(np.float64)
     # A regularised inverse: a singular covariance smooths along one direction only.
@@ -88,9 +108,47 @@ def _smoothed_seated(atlas: AcceptanceAtlas, cov_d: FloatArray) -> FloatArray:
     kernel /= kernel.sum()
     shape = [seated.shape[a] + kernel.shape[a] - 1 for a in (0, 1)]
     full = np.fft.irfft2(np.fft.rfft2(seated, shape) * np.fft.rfft2(kernel, shape), shape)
-    return np.asarray(
-        full[half[0] : half[0] + seated.shape[0], half[1] : half[1] + seated.shape[1]]
-    )
+    return np.asarray(full[half[0] + i0 : half[0] + i0 + n0, half[1] + k0 : half[1] + k0 + n1])
+
+
+def _likely_nodes(
+    atlas: AcceptanceAtlas,
+    start: FloatArray,
+    cov_d: FloatArray,
+    reg: FloatArray,
+    level: float,
+    measure: Callable[[FloatArray], FloatArray],
+) -> Iterator[FloatArray]:
+    """Atlas nodes whose smoothed seat estimate reaches ``level``, nearest first in the
+    Mahalanobis metric, found in windows of growing radius around ``start`` (D, rad).
+
+    A window reaching ``radius`` standard deviations (of ``reg``) from ``start`` along both
+    axes holds every node nearer than that: its nodes nearer than ``radius`` come in order
+    before any node of the next, wider window. The last round is the whole grid."""
+    steps = np.array([atlas.lateral_step, atlas.angle_step])
+    origin = np.array([atlas.x0[0], atlas.theta0[0]])
+    shape = atlas.outcomes.shape
+    done = 0.0
+    for radius in (*WINDOW_RADII, math.inf):
+        if math.isfinite(radius):
+            reach = radius * np.sqrt(np.diag(reg)) / steps
+            centre = (start - origin) / steps
+            lo = np.maximum(np.floor(centre - reach).astype(np.int64), 0)
+            hi = np.minimum(np.ceil(centre + reach).astype(np.int64) + 1, shape)
+            if np.any(lo >= hi):
+                continue  # the window lies off the grid
+            rows, cols = slice(int(lo[0]), int(hi[0])), slice(int(lo[1]), int(hi[1]))
+        else:
+            rows, cols = slice(0, shape[0]), slice(0, shape[1])
+        good = _smoothed_seated(atlas, cov_d, rows, cols) >= level
+        nodes = np.stack(np.meshgrid(atlas.x0[rows], atlas.theta0[cols], indexing="ij"), axis=-1)[
+            good
+        ]
+        dist = measure(nodes - start)
+        band = (dist > done) & (dist <= radius) if done > 0.0 else dist <= radius
+        for j in np.flatnonzero(band)[np.argsort(dist[band], kind="stable")]:
+            yield nodes[j]
+        done = radius
 
 
 def _runs(mask: npt.NDArray[np.bool_], axis: int, reverse: bool) -> npt.NDArray[np.int64]:
@@ -122,28 +180,90 @@ def _safe_nodes(
     )
 
 
-def _shortest(
-    start: FloatArray,
-    candidates: FloatArray,
-    meets: Callable[[FloatArray], tuple[bool, object]],
+def _first_meeting(
+    candidates: Iterable[FloatArray], meets: Callable[[FloatArray], tuple[bool, object]]
 ) -> tuple[FloatArray, object] | None:
-    """The first candidate (nearest first) meeting the requirement, pulled back towards
-    ``start`` by bisection while it still holds; None if none of them does."""
-    for target in candidates[:MAX_CANDIDATES]:
+    """The first of at most MAX_CANDIDATES candidates (nearest first) that meets the
+    requirement exactly, with what ``meets`` found there; None if none of them does."""
+    for target in itertools.islice(candidates, MAX_CANDIDATES):
         ok, info = meets(target)
-        if not ok:
-            continue
-        lo, hi, best = 0.0, 1.0, (target, info)
-        for _ in range(LINE_STEPS):
-            mid = 0.5 * (lo + hi)
-            pose = start + mid * (target - start)
-            ok, found = meets(pose)
-            if ok:
-                hi, best = mid, (pose, found)
-            else:
-                lo = mid
-        return best
+        if ok:
+            return target, info
     return None
+
+
+def _bisect_back(
+    start: FloatArray,
+    target: FloatArray,
+    info: object,
+    meets: Callable[[FloatArray], tuple[bool, object]],
+) -> tuple[FloatArray, object]:
+    """``target`` pulled back towards ``start`` along the straight line by LINE_STEPS
+    bisection steps while the requirement (a yes or no: margins) still holds."""
+    lo, hi, best = 0.0, 1.0, (target, info)
+    for _ in range(LINE_STEPS):
+        mid = 0.5 * (lo + hi)
+        pose = start + mid * (target - start)
+        ok, found = meets(pose)
+        if ok:
+            hi, best = mid, (pose, found)
+        else:
+            lo = mid
+    return best
+
+
+_NORMAL = statistics.NormalDist()
+
+
+def _probit(p: float) -> float:
+    """The standard normal quantile of ``p`` (clipped to 1e-12 from 0 and 1): across a
+    straight boundary the seat probability is the normal CDF of a linear function of the
+    position, so its probit is linear along a line."""
+    return _NORMAL.inv_cdf(min(max(p, 1e-12), 1.0 - 1e-12))
+
+
+def _secant_back(
+    start: FloatArray,
+    target: FloatArray,
+    p_start: float,
+    p_target: float,
+    probability_at: Callable[[FloatArray], float],
+    level: float,
+) -> tuple[FloatArray, float]:
+    """``target`` pulled back towards ``start`` to where the seat probability falls to
+    ``level``, to the same width as LINE_STEPS bisection steps (1/64 of the segment).
+
+    The probability is the Gaussian's mass over the seated region, smooth along the line,
+    and across a straight boundary the normal CDF of a linear function of the position: so
+    the crossing is found by regula falsi on its probit (:func:`_probit`), with the Illinois
+    rule (the retained end's value halved when the same end is kept twice), instead of
+    bisection: typically two or three exact evaluations instead of six. Each point tried
+    stays at least half the width inside the bracket, so an estimate that lands next to one
+    end closes the bracket with the next evaluation. The end kept as the answer always has
+    an exact probability >= ``level``; at most LINE_STEPS evaluations."""
+    width = 0.5**LINE_STEPS
+    lo, hi = 0.0, 1.0
+    v_lo, v_hi = _probit(p_start) - _probit(level), _probit(p_target) - _probit(level)
+    best = (target, p_target)
+    kept = 0  # +1: the last step moved hi, -1: lo
+    for _ in range(LINE_STEPS):
+        if hi - lo <= width:
+            break
+        f = hi - v_hi * (hi - lo) / (v_hi - v_lo) if v_hi > v_lo else 0.5 * (lo + hi)
+        f = min(max(f, lo + 0.5 * width), hi - 0.5 * width)
+        pose = start + f * (target - start)
+        p = probability_at(pose)
+        if p >= level:
+            hi, v_hi, best = f, _probit(p) - _probit(level), (pose, p)
+            if kept > 0:
+                v_lo *= 0.5
+            kept = 1
+        else:
+            lo, v_lo = f, _probit(p) - _probit(level)
+            if kept < 0:
+                v_hi *= 0.5
+            kept = -1
+    return best
 
 
 def suggest_approach(
@@ -157,6 +277,7 @@ def suggest_approach(
     min_angle: float = DEFAULT_MIN_ANGLE,
     physics: Physics | None = None,
     atlas: AcceptanceAtlas | None = None,
+    probability: float | None = None,
 ) -> ApproachSuggestion:
     """The smallest correction of (x0, theta0) after which the dock is likely or safe.
 
@@ -181,6 +302,10 @@ def suggest_approach(
     physics : Physics, optional
     atlas : AcceptanceAtlas, optional
         Built for this design and physics (default: one is built).
+    probability : float, optional
+        With ``cov``: the seat probability at (x0, theta0) when the caller has computed it
+        already (:func:`~xface_core.probability.seat_probability` with this atlas, as the
+        ROS node has): spares that evaluation. In [0, 1].
 
     Returns
     -------
@@ -203,54 +328,84 @@ def suggest_approach(
     check_pose(design, x0, theta0, None)
     at = build_atlas(design, physics=phys) if atlas is None else atlas
     at = at.bound_to(design, phys)
-    w = design.width
-    start = np.array([x0 / w, theta0])
-    nodes = np.stack(np.meshgrid(at.x0, at.theta0, indexing="ij"), axis=-1)
+    start = np.array([x0 / design.width, theta0])
     if cov is not None:
-        if not 0.0 < level < 1.0:
-            raise XfaceValueError(f"level must be in (0, 1), got {level!r}")
-        c = checked_covariances(cov, 1)[0]
-        cov_d = c / np.outer([w, 1.0], [w, 1.0])
-        reg = cov_d + 1e-6 * np.diag([at.lateral_step**2, at.angle_step**2])
-        inv = np.linalg.inv(reg)
-        good = _smoothed_seated(at, cov_d) >= level
-        metric = "mahalanobis"
+        return _by_probability(at, start, cov, level, probability)
+    return _by_margins(at, start, min_lateral, min_angle)
 
-        def measure(delta: FloatArray) -> FloatArray:
-            return np.asarray(np.sqrt(np.einsum("...i,ij,...j->...", delta, inv, delta)))
 
-        def meets(pose: FloatArray) -> tuple[bool, object]:
-            p = float(seat_probability(design, pose[0] * w, pose[1], c, physics=phys, atlas=at))
-            return p >= level, p
+def _by_probability(
+    at: AcceptanceAtlas,
+    start: FloatArray,
+    cov: npt.ArrayLike,
+    level: float,
+    probability: float | None,
+) -> ApproachSuggestion:
+    """:func:`suggest_approach` with a covariance (``start`` in D and rad)."""
+    if not 0.0 < level < 1.0:
+        raise XfaceValueError(f"level must be in (0, 1), got {level!r}")
+    if probability is not None and not 0.0 <= probability <= 1.0:
+        raise XfaceValueError(f"probability must be in [0, 1], got {probability!r}")
+    design, w = at.design, at.design.width
+    c = checked_covariances(cov, 1)[0]
+    cov_d = c / np.outer([w, 1.0], [w, 1.0])
+    reg = cov_d + 1e-6 * np.diag([at.lateral_step**2, at.angle_step**2])
+    inv = np.linalg.inv(reg)
 
-    else:
-        lat = DEFAULT_MIN_LATERAL * w if min_lateral is None else float(min_lateral)
-        if not (math.isfinite(lat) and lat >= 0 and math.isfinite(min_angle) and min_angle >= 0):
-            raise XfaceValueError("min_lateral and min_angle must be finite and >= 0")
-        good = _safe_nodes(at, lat / w, min_angle)
-        metric = "scaled"
+    def measure(delta: FloatArray) -> FloatArray:
+        return np.asarray(np.sqrt(np.einsum("...i,ij,...j->...", delta, inv, delta)))
 
-        def measure(delta: FloatArray) -> FloatArray:
-            return np.asarray(np.hypot(delta[..., 0], delta[..., 1]))
+    def probability_at(pose: FloatArray) -> float:
+        p = seat_probability(design, pose[0] * w, pose[1], c, physics=at.physics, atlas=at)
+        return float(p)
 
-        def meets(pose: FloatArray) -> tuple[bool, object]:
-            code = Outcome(
-                int(predict_batch(design, [pose[0] * w], [pose[1]], physics=phys).outcome[0])
-            )
-            if code is not Outcome.SEATED:
-                return False, None
-            m = margins_from_atlas(at, pose[0] * w, pose[1], code)
-            return m.lateral >= lat and m.angle >= min_angle, m
+    def meets(pose: FloatArray) -> tuple[bool, object]:
+        p = probability_at(pose)
+        return p >= level, p
+
+    p_start = probability_at(start) if probability is None else float(probability)
+    if p_start >= level:
+        return _suggestion(start, start, measure, "mahalanobis", True, p_start, w)
+    found = _first_meeting(_likely_nodes(at, start, cov_d, reg, level, measure), meets)
+    if found is None:
+        return _suggestion(start, start, measure, "mahalanobis", False, p_start, w)
+    target, p_target = found
+    assert isinstance(p_target, float)
+    pose, p = _secant_back(start, target, p_start, p_target, probability_at, level)
+    return _suggestion(start, pose, measure, "mahalanobis", True, p, w)
+
+
+def _by_margins(
+    at: AcceptanceAtlas, start: FloatArray, min_lateral: float | None, min_angle: float
+) -> ApproachSuggestion:
+    """:func:`suggest_approach` without a covariance (``start`` in D and rad)."""
+    design, w = at.design, at.design.width
+    lat = DEFAULT_MIN_LATERAL * w if min_lateral is None else float(min_lateral)
+    if not (math.isfinite(lat) and lat >= 0 and math.isfinite(min_angle) and min_angle >= 0):
+        raise XfaceValueError("min_lateral and min_angle must be finite and >= 0")
+
+    def measure(delta: FloatArray) -> FloatArray:
+        return np.asarray(np.hypot(delta[..., 0], delta[..., 1]))
+
+    def meets(pose: FloatArray) -> tuple[bool, object]:
+        runs = predict_batch(design, [pose[0] * w], [pose[1]], physics=at.physics)
+        code = Outcome(int(runs.outcome[0]))
+        if code is not Outcome.SEATED:
+            return False, None
+        m = margins_from_atlas(at, pose[0] * w, pose[1], code)
+        return m.lateral >= lat and m.angle >= min_angle, m
 
     ok, info = meets(start)
     if ok:
-        return _suggestion(start, start, measure, metric, True, info, w)
-    candidates = nodes[good]
-    order = np.argsort(measure(candidates - start))
-    found = _shortest(start, candidates[order], meets)
+        return _suggestion(start, start, measure, "scaled", True, info, w)
+    good = _safe_nodes(at, lat / w, min_angle)
+    nodes = np.stack(np.meshgrid(at.x0, at.theta0, indexing="ij"), axis=-1)[good]
+    order = np.argsort(measure(nodes - start), kind="stable")
+    found = _first_meeting(nodes[order], meets)
     if found is None:
-        return _suggestion(start, start, measure, metric, False, info, w)
-    return _suggestion(start, found[0], measure, metric, True, found[1], w)
+        return _suggestion(start, start, measure, "scaled", False, info, w)
+    pose, info = _bisect_back(start, found[0], found[1], meets)
+    return _suggestion(start, pose, measure, "scaled", True, info, w)
 
 
 def _suggestion(

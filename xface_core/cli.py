@@ -307,8 +307,9 @@ def _pose_uncertainty(
     }
     if p < args.level:
         g = suggest_approach(
-            design, args.x0, args.theta0, cov, level=args.level, physics=physics, atlas=atlas
-        )
+            design, args.x0, args.theta0, cov, level=args.level, physics=physics, atlas=atlas,
+            probability=p,
+        )  # fmt: skip
         out["suggestion"] = {
             "dx": g.dx,
             "dtheta": g.dtheta,

@@ -296,7 +296,7 @@ def _with_probability(
     if level < 1.0:
         s = suggest_approach(
             config.design, start.x0, start.theta0, matrix, level=level,
-            physics=config.physics, atlas=atlas,
+            physics=config.physics, atlas=atlas, probability=p,
         )  # fmt: skip
         if s.reached:
             suggestion = (s.dx, s.dtheta)

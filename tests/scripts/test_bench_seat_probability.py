@@ -59,3 +59,14 @@ def test_a_small_run_prints_every_setting_and_restores_the_module(
     assert len(rows) == len(bench.RAYS) * len(bench.STEPS)
     assert sum("adaptive" in line for line in out.splitlines()) == len(bench.RAY_TOLS)
     assert "largest error at the defaults" in out
+
+
+@pytest.mark.slow
+def test_suggest_prints_one_line_per_design(
+    capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr(bench, "DESIGNS", [("V", 0.5, 1.0)])
+    assert bench.main(["--suggest", "--queries", "3", "--seed", "2"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert len(lines) == 1
+    assert lines[0].startswith("V 0.5/1: suggest_approach over 3 queries: median ")
