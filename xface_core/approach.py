@@ -24,6 +24,8 @@ from __future__ import annotations
 import itertools
 import math
 import statistics
+import threading
+import weakref
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 
@@ -111,6 +113,33 @@ def _smoothed_seated(
     return np.asarray(full[half[0] + i0 : half[0] + i0 + n0, half[1] + k0 : half[1] + k0 + n1])
 
 
+#: Whole-grid smoothings kept per atlas (a stream's covariance is often the same from pose
+#: to pose, and one that no correction can satisfy asks for the whole grid every time).
+_WHOLE: weakref.WeakKeyDictionary[AcceptanceAtlas, dict[bytes, FloatArray]] = (
+    weakref.WeakKeyDictionary()
+)
+WHOLE_KEPT = 4
+_WHOLE_LOCK = threading.Lock()
+
+
+def _smoothed(atlas: AcceptanceAtlas, cov_d: FloatArray, rows: slice, cols: slice) -> FloatArray:
+    """:func:`_smoothed_seated`, with the whole grid's kept for the last WHOLE_KEPT
+    covariances of each atlas."""
+    if (rows.start, rows.stop, cols.start, cols.stop) != (0, atlas.x0.size, 0, atlas.theta0.size):
+        return _smoothed_seated(atlas, cov_d, rows, cols)
+    key = cov_d.tobytes()
+    with _WHOLE_LOCK:
+        found = _WHOLE.setdefault(atlas, {}).get(key)
+    if found is None:
+        found = _smoothed_seated(atlas, cov_d, rows, cols)
+        with _WHOLE_LOCK:
+            kept = _WHOLE.setdefault(atlas, {})
+            if len(kept) >= WHOLE_KEPT:
+                del kept[next(iter(kept))]
+            kept[key] = found
+    return found
+
+
 def _likely_nodes(
     atlas: AcceptanceAtlas,
     start: FloatArray,
@@ -140,7 +169,7 @@ def _likely_nodes(
             rows, cols = slice(int(lo[0]), int(hi[0])), slice(int(lo[1]), int(hi[1]))
         else:
             rows, cols = slice(0, shape[0]), slice(0, shape[1])
-        good = _smoothed_seated(atlas, cov_d, rows, cols) >= level
+        good = _smoothed(atlas, cov_d, rows, cols) >= level
         nodes = np.stack(np.meshgrid(atlas.x0[rows], atlas.theta0[cols], indexing="ij"), axis=-1)[
             good
         ]

@@ -131,3 +131,25 @@ def test_known_probability_out_of_range_is_refused(
             coarse_v_atlas.design, 0.3, 0.4, np.eye(2) * 1e-3, atlas=coarse_v_atlas,
             probability=probability,
         )  # fmt: skip
+
+
+def test_an_unreachable_level_smooths_the_whole_grid_once_per_covariance(
+    coarse_v_atlas: xf.AcceptanceAtlas, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    whole = coarse_v_atlas.outcomes.shape
+    calls: list[tuple[int, int]] = []
+    inner = approach._smoothed_seated
+
+    def counting(atlas, cov_d, rows, cols):  # type: ignore[no-untyped-def]
+        calls.append((rows.stop - rows.start, cols.stop - cols.start))
+        return inner(atlas, cov_d, rows, cols)
+
+    monkeypatch.setattr(approach, "_smoothed_seated", counting)
+    # Half a radian of angle noise: no pose of this V-Face seats with probability 0.99.
+    cov = np.diag([0.05**2, 0.5**2])
+    for _ in range(2):
+        s = xf.suggest_approach(
+            coarse_v_atlas.design, 0.0, 0.0, cov, level=0.99, atlas=coarse_v_atlas
+        )
+        assert not s.reached
+    assert calls.count(whole) == 1
