@@ -8,6 +8,7 @@ host only; the client joins the same domain in-process with its own rclpy contex
 from __future__ import annotations
 
 import contextlib
+import math
 import os
 import signal
 import subprocess
@@ -57,6 +58,8 @@ BASE_FRAME = "xface_base"
 #: the simulator (numba) before it offers its service, on a shared machine.
 STARTUP_TIMEOUT_S = 300.0
 REPLY_TIMEOUT_S = 60.0
+#: A query to the node (plan, status) without a reply after this long is sent again.
+QUERY_RESEND_S = 5.0
 
 M = TypeVar("M")
 
@@ -335,17 +338,45 @@ class RosClient:
         self, start: PoseStamped, tolerance: float = 0.0, timeout_s: float = REPLY_TIMEOUT_S
     ) -> PathMsg:
         request = GetPlan.Request(start=start, tolerance=tolerance)
-        future = self.plan_client.call_async(request)
-        return _result(future, timeout_s).plan
+        return self.call(self.plan_client, request, timeout_s, resend_s=QUERY_RESEND_S).plan
 
     def call_status(self, timeout_s: float = REPLY_TIMEOUT_S) -> Any:
         """``predict_status`` (SelfTest): the latest pose's answer in one call."""
-        return self.call(self.status_client, SelfTest.Request(), timeout_s)
+        return self.call(self.status_client, SelfTest.Request(), timeout_s, resend_s=QUERY_RESEND_S)
 
-    def call(self, client: Any, request: Any, timeout_s: float = REPLY_TIMEOUT_S) -> Any:
-        """Wait for ``client``'s service, call it and return the response."""
+    def call(
+        self,
+        client: Any,
+        request: Any,
+        timeout_s: float = REPLY_TIMEOUT_S,
+        *,
+        resend_s: float | None = None,
+    ) -> Any:
+        """Wait for ``client``'s service, call it and return the first response.
+
+        With ``resend_s``, the request is sent again each time that long passes without a
+        reply (every request sent stays pending: whichever answers first counts). A reply
+        can be lost to ROS 2's service discovery race (the server's response writer not yet
+        matched to our reader when it answers; see test_node_managed's fixture), so only
+        a question that changes nothing (a plan, the latest status) is sent again."""
         assert client.wait_for_service(timeout_sec=timeout_s)
-        return _result(client.call_async(request), timeout_s)
+        deadline = time.monotonic() + timeout_s
+        pending = [client.call_async(request)]
+        resend_at = math.inf if resend_s is None else time.monotonic() + resend_s
+        while True:
+            for future in pending:
+                if future.done():
+                    for other in pending:
+                        if other is not future:
+                            client.remove_pending_request(other)
+                    return future.result()
+            now = time.monotonic()
+            if now > deadline:
+                raise TimeoutError(f"no reply within {timeout_s:g} s")
+            if resend_s is not None and now > resend_at:
+                pending.append(client.call_async(request))
+                resend_at = now + resend_s
+            time.sleep(0.01)
 
     def set_parameters(self, **values: Any) -> list[Any]:
         """SetParameters on the node; the list of SetParametersResult (one per parameter)."""
