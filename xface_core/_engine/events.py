@@ -32,6 +32,8 @@ from .records import (
     U_TOL,
     FloatArray,
     IntArray,
+    Trig,
+    njit_inline,
     njit_no_refcount,
 )
 
@@ -297,13 +299,12 @@ def segment_velocity(
     )  # fmt: skip
 
 
-@njit_no_refcount
-def contact_value(
-    row: FloatArray, thr: float, cb: float, sb: float, cm: float, sm: float, x0: float, ym: float
-) -> float:
+@njit_inline
+def contact_value(row: FloatArray, thr: float, trig: Trig, x0: float, ym: float) -> float:
     """The contact event function of a pair (its gap with the edge's convex corners clipped
-    on, less the threshold ``thr``, D) at a state given by cos and sin of phi_B and phi_M
-    (for callers that check many pairs at one state)."""
+    on, less the threshold ``thr``, D) at a state given by ``trig``, the cos and sin of
+    phi_B and phi_M (for callers that check many pairs at one state)."""
+    cb, sb, cm, sm = trig
     g, _, _, _, _, _, _, _, _ = eval_pair(row, cb, sb, cm, sm, x0, ym)
     if g > thr:
         return g - thr
@@ -321,7 +322,7 @@ def event_value(
     """
     if kind == E_CONTACT:
         cb, sb, cm, sm = math.cos(pb), math.sin(pb), math.cos(pm), math.sin(pm)
-        return contact_value(seg.pairs[idx], thr, cb, sb, cm, sm, seg.x0, ym)
+        return contact_value(seg.pairs[idx], thr, (cb, sb, cm, sm), seg.x0, ym)
     if kind == E_RELEASE:
         _, _, l1, l2 = segment_velocity(seg, pb, pm, ym)
         lam = l1 if slot == 0 else l2

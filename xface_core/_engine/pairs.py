@@ -9,7 +9,15 @@ from __future__ import annotations
 
 import math
 
-from .records import CORNER_REACH, TOUCH_WINDOW, U_CORNER, FloatArray, IntArray, njit_no_refcount
+from .records import (
+    CORNER_REACH,
+    TOUCH_WINDOW,
+    U_CORNER,
+    FloatArray,
+    IntArray,
+    njit_inline,
+    njit_no_refcount,
+)
 
 #: Columns of the pair table the engine fills itself (:func:`fill_extents`): the largest
 #: distance (D) of the pair's vertex or edge ends from their pivots, and the edge's length.
@@ -31,7 +39,7 @@ def fill_extents(table: FloatArray) -> None:
         row[COL_EDGE_LENGTH] = math.hypot(row[5] - row[3], row[6] - row[4])
 
 
-@njit_no_refcount
+@njit_inline
 def eval_pair(
     row: FloatArray, cb: float, sb: float, cm: float, sm: float, x0: float, y_m: float
 ) -> tuple[float, float, float, float, float, float, float, float, float]:
@@ -78,7 +86,7 @@ def eval_pair(
     return g, u, a_b, a_m, beta, px, py, nx, ny
 
 
-@njit_no_refcount
+@njit_inline
 def adjacent_gap(
     row: FloatArray, cb: float, sb: float, cm: float, sm: float, x0: float, y_m: float, at_end: bool
 ) -> tuple[float, bool]:
@@ -108,7 +116,7 @@ def adjacent_gap(
     return wnx * (px - wx) + wny * (py - wy), convex
 
 
-@njit_no_refcount
+@njit_inline
 def clipped_gap(
     row: FloatArray, g: float, cb: float, sb: float, cm: float, sm: float, x0: float, y_m: float
 ) -> float:
@@ -188,7 +196,7 @@ def _outside(nx: float, ny: float, dx: float, dy: float, tol: float) -> bool:
     return nx * dx + ny * dy >= -tol
 
 
-@njit_no_refcount
+@njit_inline
 def _side_of_all(mx: float, my: float, rays: FloatArray) -> bool:
     """Are all four rays on the non-negative side of the line with normal m?"""
     for k in range(4):  # noqa: SIM110 (numba compiles no generators)
@@ -197,7 +205,7 @@ def _side_of_all(mx: float, my: float, rays: FloatArray) -> bool:
     return True
 
 
-@njit_no_refcount
+@njit_inline
 def _cone_admits(
     row: FloatArray,
     at_end: bool,
@@ -322,7 +330,7 @@ def corners_can_cross(row: FloatArray) -> bool:
     return bool(row[14] >= 0.5 and row[18] * row[17] - row[19] * row[16] < 0.0)
 
 
-@njit_no_refcount
+@njit_inline
 def wedges_cross(row: FloatArray, cb: float, sb: float, cm: float, sm: float, x0: float,
                  y_m: float, margin: float, rays: FloatArray) -> bool:  # fmt: skip
     """Do the parts overlap near the pair's vertex V and the start corner K of its edge,
@@ -347,7 +355,7 @@ def wedges_cross(row: FloatArray, cb: float, sb: float, cm: float, sm: float, x0
     return not _cone_admits(row, False, cv, sv, ck, sk, x0, y_m, dx, dy, margin, rays)
 
 
-@njit_no_refcount
+@njit_inline
 def pair_at(
     table: FloatArray, i: int, pb: float, pm: float, x0: float, ym: float
 ) -> tuple[float, float, float, float, float, float, float, float, float]:

@@ -56,12 +56,11 @@ from .records import (
     U_TOL,
     FloatArray,
     Options,
+    Trig,
     Work,
+    njit_inline,
     njit_no_refcount,
 )
-
-#: cos and sin of phi_B, then of phi_M, at one state.
-Trig = tuple[float, float, float, float]
 
 
 @njit_no_refcount
@@ -107,7 +106,8 @@ def _active_events(
                 kind = E_TURN
                 hk = lo
             best = earlier(Event(kind, pair, hk), best)
-        _, u, _, _, _, _, _, _, _ = eval_pair(seg.pairs[pair], *end, seg.x0, y1)
+        ecb, esb, ecm, esm = end
+        _, u, _, _, _, _, _, _, _ = eval_pair(seg.pairs[pair], ecb, esb, ecm, esm, seg.x0, y1)
         if u < -U_TOL or u > 1.0 + U_TOL:
             _, hk = locate(seg, step, tol, E_OFF_EDGE, pair, k, 0.0)
             best = earlier(Event(E_OFF_EDGE, pair, hk), best)
@@ -230,13 +230,13 @@ def _contact_events(
             if at_h != best.h:
                 at = _trig_after(seg, step, best.h)
                 at_h = best.h
-            if contact_value(row, thr[i], *at, x0, step.y_m - at_h) > -FLAT_GAP:
+            if contact_value(row, thr[i], at, x0, step.y_m - at_h) > -FLAT_GAP:
                 continue
             t_early = max(best.h - 2.0 * tol, 0.0)
             if early_h != best.h:
                 early = _trig_after(seg, step, t_early)
                 early_h = best.h
-            if contact_value(row, thr[i], *early, x0, step.y_m - t_early) > 0.0:
+            if contact_value(row, thr[i], early, x0, step.y_m - t_early) > 0.0:
                 continue
         _, hk = locate(seg, step, tol, E_CONTACT, i, 0, thr[i])
         if best.kind != E_NONE and hk >= best.h:
@@ -447,7 +447,7 @@ def _contacts_before(
         for i in range(pairs.shape[0]):
             if (n_act > 0 and act[0] == i) or (n_act > 1 and act[1] == i) or asleep(work, i):
                 continue
-            if contact_value(pairs[i], thr[i], *at_event, x0, step.y_m - best.h) > -FLAT_GAP:
+            if contact_value(pairs[i], thr[i], at_event, x0, step.y_m - best.h) > -FLAT_GAP:
                 continue
             row = pairs[i]
             if g_prev[i] <= thr[i] and (
@@ -460,7 +460,7 @@ def _contacts_before(
             if early_h != best.h:
                 early = _trig_after(seg, step, t_early)
                 early_h = best.h
-            if contact_value(row, thr[i], *early, x0, step.y_m - t_early) > 0.0:
+            if contact_value(row, thr[i], early, x0, step.y_m - t_early) > 0.0:
                 continue
             if rates[0] < 0.0:
                 rates = _turn_rates(seg, head, eb, em)
@@ -627,11 +627,11 @@ def _contacts_inside_step(
         for k in range(n_samples):
             t = (k + 1) / (n_samples + 1) * h_end
             at_sample = (samples[k, 2], samples[k, 3], samples[k, 4], samples[k, 5])
-            if contact_value(row, thr[i], *at_sample, x0, step.y_m - t) > 0.0:
+            if contact_value(row, thr[i], at_sample, x0, step.y_m - t) > 0.0:
                 continue
             pb_k, pm_k, _, _, _ = step_to(seg, step, t)
             at_sample = (math.cos(pb_k), math.sin(pb_k), math.cos(pm_k), math.sin(pm_k))
-            if contact_value(row, thr[i], *at_sample, x0, step.y_m - t) > 0.0:
+            if contact_value(row, thr[i], at_sample, x0, step.y_m - t) > 0.0:
                 continue  # a dip of the interpolant only, within the step's error
             head = Step(step.phi_b, step.phi_m, step.y_m, t)
             # The search runs over the head of the step up to this sample: far behind there
@@ -648,7 +648,7 @@ def _contacts_inside_step(
     return best
 
 
-@njit_no_refcount
+@njit_inline
 def _crossing(
     opts: Options,
     rays: FloatArray,
