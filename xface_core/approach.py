@@ -157,11 +157,11 @@ def _likely_nodes(
     steps = np.array([atlas.lateral_step, atlas.angle_step])
     origin = np.array([atlas.x0[0], atlas.theta0[0]])
     shape = atlas.outcomes.shape
-    done = 0.0
+    centre = (start - origin) / steps
+    done = -1.0  # nodes nearer than this came in an earlier round (none before the first)
     for radius in (*WINDOW_RADII, math.inf):
         if math.isfinite(radius):
             reach = radius * np.sqrt(np.diag(reg)) / steps
-            centre = (start - origin) / steps
             lo = np.maximum(np.floor(centre - reach).astype(np.int64), 0)
             hi = np.minimum(np.ceil(centre + reach).astype(np.int64) + 1, shape)
             if np.any(lo >= hi):
@@ -174,7 +174,7 @@ def _likely_nodes(
             good
         ]
         dist = measure(nodes - start)
-        band = (dist > done) & (dist <= radius) if done > 0.0 else dist <= radius
+        band = (dist > done) & (dist <= radius)
         for j in np.flatnonzero(band)[np.argsort(dist[band], kind="stable")]:
             yield nodes[j]
         done = radius
@@ -272,7 +272,8 @@ def _secant_back(
     an exact probability >= ``level``; at most LINE_STEPS evaluations."""
     width = 0.5**LINE_STEPS
     lo, hi = 0.0, 1.0
-    v_lo, v_hi = _probit(p_start) - _probit(level), _probit(p_target) - _probit(level)
+    z_level = _probit(level)
+    v_lo, v_hi = _probit(p_start) - z_level, _probit(p_target) - z_level
     best = (target, p_target)
     kept = 0  # +1: the last step moved hi, -1: lo
     for _ in range(LINE_STEPS):
@@ -283,12 +284,12 @@ def _secant_back(
         pose = start + f * (target - start)
         p = probability_at(pose)
         if p >= level:
-            hi, v_hi, best = f, _probit(p) - _probit(level), (pose, p)
+            hi, v_hi, best = f, _probit(p) - z_level, (pose, p)
             if kept > 0:
                 v_lo *= 0.5
             kept = 1
         else:
-            lo, v_lo = f, _probit(p) - _probit(level)
+            lo, v_lo = f, _probit(p) - z_level
             if kept < 0:
                 v_hi *= 0.5
             kept = -1
