@@ -18,7 +18,8 @@ from this process:
 * calls the ``predict`` service every 0.25 s during the stream (responsiveness);
 * samples the node's resident memory from /proc;
 * reads the CPU time the node's threads and its own used during the stream, by thread name
-  (/proc/<pid>/task: the node's worker is ``xface_predictor``, its executor ``python``,
+  (/proc/<pid>/task: the node's worker is ``xface_predictor``, its pose reader
+  ``xface_poses``, its executor ``python``,
   Fast DDS's threads ``dds.*``);
 * reads the node's counters from ``/diagnostics`` after the stream has drained;
 * stops the node with SIGINT and records its exit code.

@@ -3,7 +3,9 @@
 The node declares its parameters (:mod:`xface_ros.params`), creates its publishers, the pose
 subscription, the ``predict`` service and the diagnostics timer, and hands work on:
 
-* the subscription converts each pose to plain values and submits it to the
+* the two pose subscriptions are read by a :class:`~xface_ros.pose_reader.PoseReader` on a
+  thread of their own, not by the executor (whose wait set costs 0.4 ms of Python a message);
+  each pose is converted to plain values and submitted to the
   :class:`~xface_ros.worker.PredictionWorker` (its own thread: newest pose wins), which warms
   the simulator up first, decides each pose with :mod:`xface_ros.decision` and calls back
   :meth:`XfacePredictor._publish_verdict`;
@@ -82,6 +84,7 @@ from xface_ros.params import (
     declare_parameters,
     merged_values,
 )
+from xface_ros.pose_reader import PoseReader, ReadByPoseReader
 from xface_ros.recorder import Recorder
 from xface_ros.worker import LOG_THROTTLE_S, PredictionWorker
 
@@ -148,6 +151,7 @@ class _Predictor(Node):
         self._inputs: list[tuple[Any, Any]] = []  # (entity, its destroy method)
         self._recorder: Recorder | None = None
         self._worker: PredictionWorker | None = None
+        self._pose_reader: PoseReader | None = None
 
     @property
     def _running_worker(self) -> PredictionWorker:
@@ -194,7 +198,7 @@ class _Predictor(Node):
             "relative_pose",
             self._on_pose,
             qos_profile_sensor_data,
-            callback_group=MutuallyExclusiveCallbackGroup(),
+            callback_group=ReadByPoseReader(),
             event_callbacks=SubscriptionEventCallbacks(message_lost=self._on_message_lost),
         )
         # The same stream with its uncertainty: the status then also carries the seat
@@ -204,8 +208,15 @@ class _Predictor(Node):
             "relative_pose_with_covariance",
             self._on_pose_with_covariance,
             qos_profile_sensor_data,
-            callback_group=MutuallyExclusiveCallbackGroup(),
+            callback_group=ReadByPoseReader(),
         )
+        # The poses are taken on a thread of their own, not by the executor (pose_reader).
+        self._pose_reader = PoseReader(
+            self.context,
+            [(pose_sub, self._on_pose), (cov_sub, self._on_pose_with_covariance)],
+            self.get_logger(),
+        )
+        self._pose_reader.start()
         plan_service = self.create_service(
             GetPlan,
             "predict",
@@ -238,6 +249,7 @@ class _Predictor(Node):
         )
 
     def _release_inputs(self) -> None:
+        self._stop_pose_reader()
         inputs, self._inputs = self._inputs, []
         for entity, destroy in inputs:
             destroy(entity)
@@ -435,8 +447,14 @@ class _Predictor(Node):
 
     # --- shutdown ---------------------------------------------------------------------------
 
+    def _stop_pose_reader(self) -> None:
+        reader, self._pose_reader = self._pose_reader, None
+        if reader is not None:
+            reader.stop()
+
     def close(self) -> None:
-        """Stop the worker and finish the recording (idempotent)."""
+        """Stop the pose reader and the worker, and finish the recording (idempotent)."""
+        self._stop_pose_reader()
         worker, self._worker = self._worker, None
         if worker is not None:
             worker.stop(timeout_s=30.0)
@@ -558,9 +576,10 @@ def main(args: list[str] | None = None) -> int:
     options = _parse_options(argv)  # exits 2 with usage on an unknown option
     rclpy.init(args=argv, signal_handler_options=SignalHandlerOptions.ALL)
     node: _Predictor | None = None
-    # One executor thread: rclpy's SingleThreadedExecutor takes a 1 kHz pose stream with far
-    # fewer losses than its MultiThreadedExecutor (scripts/ros_stress.py, docs/ros.md); the
-    # simulation runs in the worker thread, so callbacks stay short.
+    # One executor thread for the services, parameters and timer: rclpy's
+    # SingleThreadedExecutor took a 1 kHz pose stream with far fewer losses than its
+    # MultiThreadedExecutor (scripts/ros_stress.py, docs/ros.md); the poses are now read by
+    # the pose reader's thread and simulated in the worker's, so callbacks stay short.
     executor = SingleThreadedExecutor()
     code = 0
     try:

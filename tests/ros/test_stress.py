@@ -67,6 +67,9 @@ def test_node_survives_a_1khz_stream_and_accounts_for_every_pose(
     # The worker thread is named for the OS (xface_ros.threadname) and simulated the poses:
     # its CPU is told apart from the executor's.
     assert r["cpu_s_node"].get("xface_predictor", 0.0) > 0.0
+    # The poses were taken by the pose reader's thread (xface_ros.pose_reader), not the
+    # executor's, which now only serves the services, the parameters and the timer.
+    assert r["cpu_s_node"].get("xface_poses", 0.0) > 0.0
 
 
 def test_a_stream_with_covariance_gets_a_seat_probability_in_every_status(
