@@ -29,6 +29,8 @@ IntArray = npt.NDArray[np.int64]
 Trig = tuple[float, float, float, float]
 
 _F = TypeVar("_F", bound=Callable[..., Any])
+#: numba's flags for every kernel without reference counting (:func:`njit_no_refcount`).
+_NO_REFCOUNT_FLAGS: dict[str, Any] = {"cache": True, "nogil": True, "_nrt": False}
 
 
 def njit_no_refcount(fn: _F) -> _F:
@@ -43,8 +45,7 @@ def njit_no_refcount(fn: _F) -> _F:
     release a reference it never got). Kernels that allocate keep ``@njit(cache=True,
     nogil=True)``; numba compiles their callees with NRT as their own flags say.
     """
-    flags: dict[str, Any] = {"cache": True, "nogil": True, "_nrt": False}
-    return cast(_F, njit(**flags)(fn))
+    return cast(_F, njit(**_NO_REFCOUNT_FLAGS)(fn))
 
 
 def njit_inline(fn: _F) -> _F:
@@ -55,8 +56,7 @@ def njit_inline(fn: _F) -> _F:
     arithmetic; the maps 0.94 of their time for ``pairs.eval_pair`` alone (docs/bench.md).
     A caller must pass its arguments one by one (numba cannot inline a call with ``*args``).
     """
-    flags: dict[str, Any] = {"cache": True, "nogil": True, "_nrt": False, "inline": "always"}
-    return cast(_F, njit(**flags)(fn))
+    return cast(_F, njit(**_NO_REFCOUNT_FLAGS, inline="always")(fn))
 
 
 # ---- codes as plain ints (numba folds module globals into constants) ---------------------
