@@ -46,17 +46,7 @@ class Manager:
         The node is started without waiting for its warm-up, so the tests' first call comes
         right then. ``GetState`` changes nothing, so it is safe to send again; a transition
         is not, which is why this runs before any."""
-        assert self.get.wait_for_service(timeout_sec=timeout_s)
-        deadline = time.monotonic() + timeout_s
-        while time.monotonic() < deadline:
-            future = self.get.call_async(GetState.Request())
-            resend = time.monotonic() + 2.0
-            while time.monotonic() < resend:
-                if future.done():
-                    return
-                time.sleep(0.01)
-            self.get.remove_pending_request(future)
-        pytest.fail(f"get_state did not answer within {timeout_s:g} s")
+        self.client.call(self.get, GetState.Request(), timeout_s, resend_s=2.0)
 
 
 def wait_until(condition: Any, timeout_s: float = GRAPH_TIMEOUT_S) -> None:
