@@ -39,7 +39,7 @@ import numpy.typing as npt
 
 from .atlas_flips import bisect_every_flip, check_cancel
 from .codes import Outcome
-from .errors import XfaceValueError
+from .errors import XfaceValueError, is_integer_in
 from .geometry import FaceDesign
 from .physics import Physics, SolverSettings
 from .runner import START_CLEARANCE, predict_batch
@@ -341,13 +341,7 @@ def _grid_size(
 ) -> tuple[int, int]:
     """Nodes either side of zero along x0 and theta0 (:func:`build_atlas`'s grid), after
     checking the stride and the grid's size."""
-    stride: object = coarse_stride
-    if (
-        isinstance(stride, bool)
-        or not isinstance(stride, int)
-        or coarse_stride < 1
-        or coarse_stride & (coarse_stride - 1)
-    ):
+    if not is_integer_in(coarse_stride, 1) or coarse_stride & (coarse_stride - 1):
         raise XfaceValueError(f"coarse_stride must be a power of two >= 1, got {coarse_stride!r}")
     nx = _half_nodes(x_range, dx, coarse_stride)
     nt = _half_nodes(t_range, dt, coarse_stride)

@@ -6,6 +6,9 @@ Every exception derives from :class:`XfaceError`; the value errors also derive f
 
 from __future__ import annotations
 
+import math
+from numbers import Integral
+
 __all__ = [
     "Cancelled",
     "FaceFileError",
@@ -13,6 +16,7 @@ __all__ = [
     "InputError",
     "XfaceError",
     "XfaceValueError",
+    "is_integer_in",
 ]
 
 
@@ -39,3 +43,11 @@ class FaceFileError(GeometryError):
 
 class InputError(XfaceValueError):
     """A query pose cannot be simulated (NaN, infinity, absurd magnitude)."""
+
+
+def is_integer_in(value: object, lo: int, hi: float = math.inf) -> bool:
+    """True for an integer (a numpy integer too, never a bool) with ``lo <= value <= hi``: the
+    one rule behind the checks of integer arguments (each raises its own message)."""
+    if isinstance(value, bool) or not isinstance(value, Integral):
+        return False
+    return lo <= int(value) <= hi

@@ -11,10 +11,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, fields, replace
-from numbers import Integral, Real
+from numbers import Real
 from typing import cast
 
-from .errors import XfaceValueError
+from .errors import XfaceValueError, is_integer_in
 
 __all__ = [
     "DEFAULT_PHYSICS",
@@ -100,7 +100,7 @@ class SolverSettings:
                 )
         for name in ("max_steps", "max_events"):
             value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, Integral) or value < 1:
+            if not is_integer_in(value, 1):
                 raise XfaceValueError(f"settings.{name} must be an integer >= 1, got {value!r}")
 
     def tightened(self, factor: float) -> SolverSettings:

@@ -32,7 +32,7 @@ import numpy as np
 import numpy.typing as npt
 
 from .atlas import AcceptanceAtlas, build_atlas
-from .errors import InputError, XfaceValueError
+from .errors import InputError, XfaceValueError, is_integer_in
 from .geometry import FaceDesign
 from .outcome import Outcome
 from .physics import Physics
@@ -303,16 +303,12 @@ def seat_probability(
     True
     """
     phys = Physics() if physics is None else physics
-    count: object = rays
-    if count is not None and (
-        isinstance(count, bool) or not isinstance(count, int) or not 4 <= count <= 4096
-    ):
+    if rays is not None and not is_integer_in(rays, 4, 4096):
         raise XfaceValueError(f"rays must be None or an integer in [4, 4096], got {rays!r}")
     tol: object = ray_tol
     if isinstance(tol, bool) or not isinstance(tol, (int, float)) or not 0.0 < tol <= 1.0:
         raise XfaceValueError(f"ray_tol must be a number in (0, 1], got {ray_tol!r}")
-    steps: object = crossing_steps
-    if isinstance(steps, bool) or not isinstance(steps, int) or not 0 <= crossing_steps <= 30:
+    if not is_integer_in(crossing_steps, 0, 30):
         raise XfaceValueError(
             f"crossing_steps must be an integer in [0, 30], got {crossing_steps!r}"
         )

@@ -12,7 +12,7 @@ import math
 import os
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
-from typing import TypeVar
+from typing import TypeVar, cast
 
 import numpy as np
 import numpy.typing as npt
@@ -20,7 +20,7 @@ import numpy.typing as npt
 from . import _engine
 from .codes import Outcome, Reason
 from .contact import pair_table
-from .errors import InputError, XfaceValueError
+from .errors import InputError, XfaceValueError, is_integer_in
 from .geometry import FaceDesign
 from .physics import Physics, SolverSettings
 from .result import AlignmentPath, Counters, Prediction
@@ -65,8 +65,8 @@ def thread_count(threads: object) -> int:
     silently taken as 1)."""
     if threads is None:
         return DEFAULT_THREADS
-    if isinstance(threads, int | np.integer) and not isinstance(threads, bool) and threads >= 1:
-        return int(threads)
+    if is_integer_in(threads, 1):
+        return int(cast(int, threads))
     raise XfaceValueError(f"threads must be an integer >= 1, got {threads!r}")
 
 

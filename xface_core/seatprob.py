@@ -26,7 +26,7 @@ from typing import NamedTuple, cast
 import numpy as np
 
 from .codes import Outcome
-from .errors import XfaceValueError
+from .errors import XfaceValueError, is_integer_in
 from .geometry import FaceDesign
 from .grids import ThetaGridKind, theta_grid, x0_grid
 from .physics import Physics
@@ -72,11 +72,11 @@ class PoseNoise:
             if isinstance(value, bool) or not (isinstance(value, int | float) and 0 < value <= top):
                 raise XfaceValueError(f"{name} must be in (0, {top:.4g}] {unit}, got {value!r}")
         samples, seed = cast(object, self.samples), cast(object, self.seed)
-        if not (isinstance(samples, int) and 2 <= samples <= MAX_NOISE_SAMPLES):
+        if not is_integer_in(samples, 2, MAX_NOISE_SAMPLES):
             raise XfaceValueError(
                 f"noise samples must be an integer in [2, {MAX_NOISE_SAMPLES}], got {samples!r}"
             )
-        if not (isinstance(seed, int) and 0 <= seed < 2**63):
+        if not is_integer_in(seed, 0, 2**63 - 1):
             raise XfaceValueError(f"noise seed must be an integer >= 0, got {seed!r}")
         # Normalise ints (a CLI "1") so equal noise compares and hashes equal.
         object.__setattr__(self, "sigma_x", float(self.sigma_x))
