@@ -209,6 +209,46 @@ def _safe_nodes(
     )
 
 
+def _nearest(dist: FloatArray, k: int) -> npt.NDArray[np.intp]:
+    """Indices of the ``k`` smallest distances, nearest first, ties in index order: the
+    first ``k`` of a stable argsort, without sorting them all (a node atlas has some 10^4
+    candidate nodes, and at most MAX_CANDIDATES are tried)."""
+    if dist.size <= k:
+        return np.argsort(dist, kind="stable")
+    kth = np.partition(dist, k - 1)[k - 1]
+    within = np.flatnonzero(dist <= kth)  # k or more (ties), in index order
+    return within[np.argsort(dist[within], kind="stable")][:k]
+
+
+#: Safe nodes' coordinates kept per atlas, for the last SAFE_KEPT margin requirements (a
+#: planner asks with the same ones every time; finding them takes about 10 ms).
+_SAFE: weakref.WeakKeyDictionary[AcceptanceAtlas, dict[tuple[int, int], FloatArray]] = (
+    weakref.WeakKeyDictionary()
+)
+SAFE_KEPT = 4
+_SAFE_LOCK = threading.Lock()
+
+
+def _safe_coordinates(atlas: AcceptanceAtlas, min_lateral_d: float, min_angle: float) -> FloatArray:
+    """(x0 in D, theta0) of :func:`_safe_nodes`, an (n, 2) array, kept per atlas for the
+    last SAFE_KEPT requirements (in whole atlas steps, which is all the nodes depend on)."""
+    key = (
+        math.ceil(min_lateral_d / atlas.lateral_step),
+        math.ceil(min_angle / atlas.angle_step),
+    )
+    with _SAFE_LOCK:
+        found = _SAFE.setdefault(atlas, {}).get(key)
+    if found is None:
+        good = _safe_nodes(atlas, min_lateral_d, min_angle)
+        found = np.stack(np.meshgrid(atlas.x0, atlas.theta0, indexing="ij"), axis=-1)[good]
+        with _SAFE_LOCK:
+            kept = _SAFE.setdefault(atlas, {})
+            if len(kept) >= SAFE_KEPT:
+                del kept[next(iter(kept))]
+            kept[key] = found
+    return found
+
+
 def _first_meeting(
     candidates: Iterable[FloatArray], meets: Callable[[FloatArray], tuple[bool, object]]
 ) -> tuple[FloatArray, object] | None:
@@ -428,10 +468,8 @@ def _by_margins(
     ok, info = meets(start)
     if ok:
         return _suggestion(start, start, measure, "scaled", True, info, w)
-    good = _safe_nodes(at, lat / w, min_angle)
-    nodes = np.stack(np.meshgrid(at.x0, at.theta0, indexing="ij"), axis=-1)[good]
-    order = np.argsort(measure(nodes - start), kind="stable")
-    found = _first_meeting(nodes[order], meets)
+    nodes = _safe_coordinates(at, lat / w, min_angle)
+    found = _first_meeting(nodes[_nearest(measure(nodes - start), MAX_CANDIDATES)], meets)
     if found is None:
         return _suggestion(start, start, measure, "scaled", False, info, w)
     pose, info = _bisect_back(start, found[0], found[1], meets)

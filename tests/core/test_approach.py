@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import weakref
 
 import numpy as np
 import pytest
@@ -153,3 +154,39 @@ def test_an_unreachable_level_smooths_the_whole_grid_once_per_covariance(
         )
         assert not s.reached
     assert calls.count(whole) == 1
+
+
+@pytest.mark.parametrize("k", [1, 3, 6, 40])
+def test_nearest_are_the_first_of_a_stable_sort(k: int) -> None:
+    rng = np.random.default_rng(k)
+    for _ in range(50):
+        # Few distinct values: ties everywhere, which a stable sort orders by index.
+        dist = rng.integers(0, 5, size=int(rng.integers(1, 30))).astype(np.float64)
+        expected = np.argsort(dist, kind="stable")[:k]
+        assert np.array_equal(approach._nearest(dist, k), expected)
+
+
+def test_safe_nodes_are_found_once_per_requirement(
+    coarse_v_atlas: xf.AcceptanceAtlas, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    calls: list[tuple[float, float]] = []
+    inner = approach._safe_nodes
+
+    def counting(atlas, min_lateral_d, min_angle):  # type: ignore[no-untyped-def]
+        calls.append((min_lateral_d, min_angle))
+        return inner(atlas, min_lateral_d, min_angle)
+
+    monkeypatch.setattr(approach, "_safe_nodes", counting)
+    monkeypatch.setattr(approach, "_SAFE", weakref.WeakKeyDictionary())  # none kept yet
+    design = coarse_v_atlas.design
+    for _ in range(2):
+        for min_angle in (0.05, 0.08):
+            s = xf.suggest_approach(
+                design, 0.3, 0.4, min_lateral=0.05, min_angle=min_angle, atlas=coarse_v_atlas
+            )
+            assert s.reached
+    assert len(calls) == 2
+    first = approach._safe_coordinates(coarse_v_atlas, 0.05 / design.width, 0.05)
+    assert first is approach._safe_coordinates(coarse_v_atlas, 0.05 / design.width, 0.05)
+    good = approach._safe_nodes(coarse_v_atlas, 0.05 / design.width, 0.05)
+    assert first.shape == (int(good.sum()), 2)
