@@ -113,13 +113,38 @@ def _smoothed_seated(
     return np.asarray(full[half[0] + i0 : half[0] + i0 + n0, half[1] + k0 : half[1] + k0 + n1])
 
 
+class _KeptPerAtlas:
+    """Arrays computed from an atlas, kept for the last ``kept`` keys of each atlas (weakly:
+    an atlas dropped by its owner takes its arrays with it). Thread-safe; a value computed
+    twice at once by two threads is kept once."""
+
+    def __init__(self, kept: int) -> None:
+        self._kept = kept
+        self._store: weakref.WeakKeyDictionary[AcceptanceAtlas, dict[object, FloatArray]] = (
+            weakref.WeakKeyDictionary()
+        )
+        self._lock = threading.Lock()
+
+    def get(
+        self, atlas: AcceptanceAtlas, key: object, make: Callable[[], FloatArray]
+    ) -> FloatArray:
+        """The array kept for ``key``, or ``make()``'s, then kept."""
+        with self._lock:
+            found = self._store.setdefault(atlas, {}).get(key)
+        if found is None:
+            found = make()
+            with self._lock:
+                kept = self._store.setdefault(atlas, {})
+                if len(kept) >= self._kept:
+                    del kept[next(iter(kept))]
+                kept[key] = found
+        return found
+
+
 #: Whole-grid smoothings kept per atlas (a stream's covariance is often the same from pose
 #: to pose, and one that no correction can satisfy asks for the whole grid every time).
-_WHOLE: weakref.WeakKeyDictionary[AcceptanceAtlas, dict[bytes, FloatArray]] = (
-    weakref.WeakKeyDictionary()
-)
 WHOLE_KEPT = 4
-_WHOLE_LOCK = threading.Lock()
+_WHOLE = _KeptPerAtlas(WHOLE_KEPT)
 
 
 def _smoothed(atlas: AcceptanceAtlas, cov_d: FloatArray, rows: slice, cols: slice) -> FloatArray:
@@ -127,17 +152,7 @@ def _smoothed(atlas: AcceptanceAtlas, cov_d: FloatArray, rows: slice, cols: slic
     covariances of each atlas."""
     if (rows.start, rows.stop, cols.start, cols.stop) != (0, atlas.x0.size, 0, atlas.theta0.size):
         return _smoothed_seated(atlas, cov_d, rows, cols)
-    key = cov_d.tobytes()
-    with _WHOLE_LOCK:
-        found = _WHOLE.setdefault(atlas, {}).get(key)
-    if found is None:
-        found = _smoothed_seated(atlas, cov_d, rows, cols)
-        with _WHOLE_LOCK:
-            kept = _WHOLE.setdefault(atlas, {})
-            if len(kept) >= WHOLE_KEPT:
-                del kept[next(iter(kept))]
-            kept[key] = found
-    return found
+    return _WHOLE.get(atlas, cov_d.tobytes(), lambda: _smoothed_seated(atlas, cov_d, rows, cols))
 
 
 def _likely_nodes(
@@ -222,11 +237,8 @@ def _nearest(dist: FloatArray, k: int) -> npt.NDArray[np.intp]:
 
 #: Safe nodes' coordinates kept per atlas, for the last SAFE_KEPT margin requirements (a
 #: planner asks with the same ones every time; finding them takes about 10 ms).
-_SAFE: weakref.WeakKeyDictionary[AcceptanceAtlas, dict[tuple[int, int], FloatArray]] = (
-    weakref.WeakKeyDictionary()
-)
 SAFE_KEPT = 4
-_SAFE_LOCK = threading.Lock()
+_SAFE = _KeptPerAtlas(SAFE_KEPT)
 
 
 def _safe_coordinates(atlas: AcceptanceAtlas, min_lateral_d: float, min_angle: float) -> FloatArray:
@@ -236,17 +248,13 @@ def _safe_coordinates(atlas: AcceptanceAtlas, min_lateral_d: float, min_angle: f
         math.ceil(min_lateral_d / atlas.lateral_step),
         math.ceil(min_angle / atlas.angle_step),
     )
-    with _SAFE_LOCK:
-        found = _SAFE.setdefault(atlas, {}).get(key)
-    if found is None:
+
+    def make() -> FloatArray:
         good = _safe_nodes(atlas, min_lateral_d, min_angle)
-        found = np.stack(np.meshgrid(atlas.x0, atlas.theta0, indexing="ij"), axis=-1)[good]
-        with _SAFE_LOCK:
-            kept = _SAFE.setdefault(atlas, {})
-            if len(kept) >= SAFE_KEPT:
-                del kept[next(iter(kept))]
-            kept[key] = found
-    return found
+        nodes = np.stack(np.meshgrid(atlas.x0, atlas.theta0, indexing="ij"), axis=-1)[good]
+        return np.asarray(nodes)
+
+    return _SAFE.get(atlas, key, make)
 
 
 def _first_meeting(

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import itertools
 import math
-import weakref
 
 import numpy as np
 import pytest
@@ -177,7 +176,7 @@ def test_safe_nodes_are_found_once_per_requirement(
         return inner(atlas, min_lateral_d, min_angle)
 
     monkeypatch.setattr(approach, "_safe_nodes", counting)
-    monkeypatch.setattr(approach, "_SAFE", weakref.WeakKeyDictionary())  # none kept yet
+    monkeypatch.setattr(approach, "_SAFE", approach._KeptPerAtlas(approach.SAFE_KEPT))
     design = coarse_v_atlas.design
     for _ in range(2):
         for min_angle in (0.05, 0.08):
