@@ -45,6 +45,8 @@ THREAD_NAME = "xface_poses"
 _WAIT_NS = 200_000_000
 #: Seconds between repeats of the log line of a failing callback.
 _LOG_THROTTLE_S = 5.0
+#: Pause after an unexpected failure of a wait or a take, before the next wait (s).
+_RETRY_S = 0.01
 
 
 class ReadByPoseReader(CallbackGroup):
@@ -119,38 +121,43 @@ class PoseReader:
         events = [h for sub in subs for h in cast(Iterable[EventHandler], sub.event_handlers)]
         wait_set = _rclpy.WaitSet(len(subs), 1, 0, 0, 0, len(events), self._context.handle)
         while not self._stop.is_set() and self._context.ok():
-            wait_set.clear_entities()
-            for sub in subs:
-                wait_set.add_subscription(sub.handle)
-            for handler in events:
-                handler.add_to_wait_set(wait_set)
-            wait_set.add_guard_condition(self._wake.handle)
             try:
-                wait_set.wait(_WAIT_NS)
-            except Exception:  # the context went down during the wait: shutting down
-                return
-            for handler in events:
-                if handler.is_ready(wait_set):
-                    event = handler.take_data()
-                    if event is not None and handler.callback is not None:
-                        self._call(handler.callback, event)
-            ready = wait_set.get_ready_entities("subscription")
-            for sub, callback in self._subscriptions:
-                if sub.handle.pointer in ready:
-                    self._take_all(sub, callback)
+                self._wait_and_take(wait_set, subs, events)
+            except Exception as exc:
+                if self._stop.is_set() or not self._context.ok():
+                    return  # the context went down under the wait or a take: shutting down
+                # Unexpected: say so and go on (a reader that ended quietly would leave the
+                # node answering services but never another pose).
+                self._logger.error(f"pose reader: {exc!r}", throttle_duration_sec=_LOG_THROTTLE_S)
+                self._stop.wait(_RETRY_S)
+
+    def _wait_and_take(
+        self, wait_set: Any, subs: list[Subscription], events: list[EventHandler]
+    ) -> None:
+        """One wait on the subscriptions, their events and the stop guard; then every ready
+        event handled and every waiting message taken."""
+        wait_set.clear_entities()
+        for sub in subs:
+            wait_set.add_subscription(sub.handle)
+        for handler in events:
+            handler.add_to_wait_set(wait_set)
+        wait_set.add_guard_condition(self._wake.handle)
+        wait_set.wait(_WAIT_NS)
+        for handler in events:
+            if handler.is_ready(wait_set):
+                event = handler.take_data()
+                if event is not None and handler.callback is not None:
+                    self._call(handler.callback, event)
+        ready = wait_set.get_ready_entities("subscription")
+        for sub, callback in self._subscriptions:
+            if sub.handle.pointer in ready:
+                self._take_all(sub, callback)
 
     def _take_all(self, sub: Subscription, callback: Callable[[Any], None]) -> None:
         """Every message waiting in ``sub``'s reader queue, oldest first (the slot the
         callback fills keeps the newest and counts the rest as dropped)."""
         while not self._stop.is_set():
-            try:
-                taken = sub.handle.take_message(sub.msg_type, sub.raw)
-            except Exception as exc:  # the context went down between the wait and the take
-                if not self._stop.is_set() and self._context.ok():
-                    self._logger.error(
-                        f"taking a pose failed: {exc!r}", throttle_duration_sec=_LOG_THROTTLE_S
-                    )
-                return
+            taken = sub.handle.take_message(sub.msg_type, sub.raw)
             if taken is None:
                 return
             self.taken += 1

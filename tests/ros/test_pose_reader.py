@@ -190,3 +190,28 @@ def test_a_subscription_the_executor_would_also_run_is_refused(ros: Ros) -> None
     sub = ros.node.create_subscription(Int32, "poses", lambda _: None, RELIABLE)
     with pytest.raises(ValueError, match="ReadByPoseReader"):
         PoseReader(ros.context, [(sub, lambda _: None)], ListLogger())
+
+
+def test_an_unexpected_failure_is_logged_and_the_reader_goes_on(ros: Ros) -> None:
+    got, logger = Received(), ListLogger()
+    sub = ros.node.create_subscription(
+        Int32, "poses", got.add, RELIABLE, callback_group=ReadByPoseReader()
+    )
+    reader = PoseReader(ros.context, [(sub, got.add)], logger)
+    original = reader._wait_and_take
+    failures = [RuntimeError("rmw hiccup")]
+
+    def flaky(*args: Any) -> None:
+        if failures:
+            raise failures.pop()
+        original(*args)
+
+    reader._wait_and_take = flaky  # type: ignore[method-assign]
+    reader.start()
+    try:
+        publish_when_matched(ros.node, "poses", [5, 6])
+        assert got.wait_count(2) == [5, 6]
+        assert reader.running
+        assert logger.errors == ["pose reader: RuntimeError('rmw hiccup')"]
+    finally:
+        reader.stop()
