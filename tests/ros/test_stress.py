@@ -84,3 +84,20 @@ def test_a_stream_with_covariance_gets_a_seat_probability_in_every_status(
     # The script waits for the atlas before streaming: every answer carries P(seat).
     assert r["statuses_with_probability"] == r["statuses_received"]
     assert r["node_received"] == r["node_predicted"] + r["node_dropped_newest_wins"]
+
+
+def test_a_margins_pair_runs_the_node_with_and_without_margins(
+    ros_domain_id: int, tmp_path: Path
+) -> None:
+    r = _stress(ros_domain_id, tmp_path, "--rate", "200", "--duration", "1", "--margins-pairs", "1")
+    [pair] = r["pairs"]
+    on, off = pair["on"], pair["off"]
+    for run in (on, off):
+        assert run["node_exit_code"] == 0
+        assert run["statuses_received"] > 0
+    # Every status of the first run carries margins (the stream waits for the atlas), none of
+    # the second: it really ran with compute_margins false.
+    assert on["statuses_with_margins"] == on["statuses_received"]
+    assert off["statuses_with_margins"] == 0
+    assert pair["latency_ratio"] == on["latency_ms_median"] / off["latency_ms_median"]
+    assert pair["predicted_ratio"] == on["node_predicted"] / off["node_predicted"]
