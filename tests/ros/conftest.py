@@ -360,23 +360,20 @@ class RosClient:
         matched to our reader when it answers; see test_node_managed's fixture), so only
         a question that changes nothing (a plan, the latest status) is sent again."""
         assert client.wait_for_service(timeout_sec=timeout_s)
-        deadline = time.monotonic() + timeout_s
         pending = [client.call_async(request)]
-        resend_at = math.inf if resend_s is None else time.monotonic() + resend_s
-        while True:
-            for future in pending:
-                if future.done():
-                    for other in pending:
-                        if other is not future:
-                            client.remove_pending_request(other)
-                    return future.result()
+        resend_at = [math.inf if resend_s is None else time.monotonic() + resend_s]
+
+        def resend() -> None:
             now = time.monotonic()
-            if now > deadline:
-                raise TimeoutError(f"no reply within {timeout_s:g} s")
-            if resend_s is not None and now > resend_at:
+            if resend_s is not None and now > resend_at[0]:
                 pending.append(client.call_async(request))
-                resend_at = now + resend_s
-            time.sleep(0.01)
+                resend_at[0] = now + resend_s
+
+        done = _first_done(pending, timeout_s, resend)
+        for other in pending:
+            if other is not done:
+                client.remove_pending_request(other)
+        return done.result()
 
     def set_parameters(self, **values: Any) -> list[Any]:
         """SetParameters on the node; the list of SetParametersResult (one per parameter)."""
@@ -398,13 +395,24 @@ class RosClient:
         rclpy.try_shutdown(context=self.context)
 
 
-def _result(future: Any, timeout_s: float) -> Any:
+def _first_done(
+    futures: list[Any], timeout_s: float, tick: Callable[[], None] = lambda: None
+) -> Any:
+    """The first of ``futures`` (a list ``tick`` may add to while waiting) that is done,
+    polled every 10 ms; TimeoutError after ``timeout_s``."""
     deadline = time.monotonic() + timeout_s
-    while not future.done():
+    while True:
+        for future in futures:
+            if future.done():
+                return future
         if time.monotonic() > deadline:
             raise TimeoutError(f"no reply within {timeout_s:g} s")
+        tick()
         time.sleep(0.01)
-    return future.result()
+
+
+def _result(future: Any, timeout_s: float) -> Any:
+    return _first_done([future], timeout_s).result()
 
 
 def rss_kib(pid: int) -> int:
