@@ -36,6 +36,7 @@ from .paper import PAPER_MEAN_RATIO_XS, PAPER_MEAN_RATIO_XV, mean_ratio, paper_t
 from .physics import DEFAULT_PHYSICS, Physics
 from .predict import predict
 from .progressbar import ProgressBar, terminal_progress
+from .runner import engine_is_cached
 from .sweep import AcceptanceMap, MTable, Progress, acceptance_map, m_table
 
 __all__ = ["main"]
@@ -788,6 +789,23 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+#: Said on a terminal before a run that compiles the simulator (runner.engine_is_cached).
+COMPILING_NOTICE = (
+    "xface: compiling the simulator first (once per install: 1-2 minutes on 2 cores; "
+    "later runs load it from numba's cache)"
+)
+
+
+def _say_if_compiling(args: argparse.Namespace) -> None:
+    """On a terminal, say that this run compiles the simulator before it answers, when
+    numba's cache holds none of it (a fresh install: the first ``xface predict`` took 99 s,
+    silent, on this 2-core machine). Not with ``--quiet``, nor for the paper's bound."""
+    if getattr(args, "quiet", False) or getattr(args, "method", "sim") == "bound":
+        return
+    if sys.stderr.isatty() and not engine_is_cached():
+        print(COMPILING_NOTICE, file=sys.stderr, flush=True)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``xface`` console script."""
     args = build_parser().parse_args(argv)
@@ -795,6 +813,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         _check_workers(args)
         _check_viz(args)
         _check_crosscheck(args)
+        _say_if_compiling(args)
         result: int = args.func(args)
         sys.stdout.flush()  # a closed pipe shows here, inside the handler, not at exit
     except BrokenPipeError:

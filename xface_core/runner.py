@@ -29,6 +29,7 @@ __all__ = [
     "MAX_OFFSET",
     "BatchResult",
     "check_pose",
+    "engine_is_cached",
     "engine_model",
     "engine_options",
     "predict_batch",
@@ -68,6 +69,19 @@ def thread_count(threads: object) -> int:
     if is_integer_in(threads, 1):
         return int(cast(int, threads))
     raise XfaceValueError(f"threads must be an integer >= 1, got {threads!r}")
+
+
+def engine_is_cached() -> bool:
+    """False when numba's cache holds nothing of the compiled engine (a fresh install, or a
+    cache dropped because the engine's sources changed): the next simulation then compiles
+    the engine's stages first, 1-2 minutes on a 2-core machine (99 s for the first ``xface
+    predict`` of a fresh checkout); later entries reuse the cached stages. True as well where
+    numba's cache cannot be inspected: the answer only decides whether the command line says
+    that a first run compiles."""
+    cache_dir = getattr(getattr(_engine.simulate_many, "_cache", None), "_cache_path", None)
+    if not isinstance(cache_dir, str) or not os.path.isdir(cache_dir):
+        return cache_dir is None
+    return any(name.endswith(".nbi") for name in os.listdir(cache_dir))
 
 
 def engine_model(design: FaceDesign) -> _engine.Model:

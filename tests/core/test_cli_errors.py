@@ -176,3 +176,30 @@ def test_the_bench_is_quiet_with_quiet_or_off_a_terminal(
     monkeypatch.setattr(sys.stderr, "isatty", lambda: True)
     assert main(["bench", "--quick", "--quiet", "--out", str(tmp_path / "b")]) == 0
     assert capsys.readouterr().err == ""
+
+
+@pytest.mark.parametrize(
+    ("argv", "tty", "cached", "said"),
+    [
+        (["predict", "--x0", "0.1", "--theta0", "0.1", "--json"], True, False, True),
+        (["predict", "--x0", "0.1", "--theta0", "0.1", "--json"], True, True, False),
+        (["predict", "--x0", "0.1", "--theta0", "0.1", "--json"], False, False, False),
+        (["table", "--face", "X", "--method", "bound", "--json"], True, False, False),
+        (["map", "--grid", "5", "--quiet", "--json"], True, False, False),
+    ],
+)
+def test_a_first_run_on_a_terminal_says_that_it_compiles(
+    argv: list[str],
+    tty: bool,
+    cached: bool,
+    said: bool,
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    import xface_core.cli as cli
+
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: tty)
+    monkeypatch.setattr(cli, "engine_is_cached", lambda: cached)
+    assert main(argv) == 0
+    err = capsys.readouterr().err
+    assert (cli.COMPILING_NOTICE in err) is said

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import pytest
+
 from xface_core._engine import _stale
 
 
@@ -61,3 +63,30 @@ def test_the_digest_changes_with_any_source(tmp_path: Path) -> None:
     before = _stale.source_digest(files)
     files[1].write_text("x = 2\n")
     assert _stale.source_digest(files) != before
+
+
+class _FakeCache:
+    def __init__(self, path: str) -> None:
+        self._cache_path = path
+
+
+def test_an_empty_or_missing_cache_is_not_cached(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from xface_core import _engine, runner
+
+    monkeypatch.setattr(_engine.simulate_many, "_cache", _FakeCache(str(tmp_path / "none")))
+    assert not runner.engine_is_cached()
+    monkeypatch.setattr(_engine.simulate_many, "_cache", _FakeCache(str(tmp_path)))
+    (tmp_path / _stale.STAMP_NAME).write_text("digest")  # the stamp alone is no cache
+    assert not runner.engine_is_cached()
+    _fill(tmp_path)
+    assert runner.engine_is_cached()
+
+
+def test_the_cache_after_a_simulation_is_cached() -> None:
+    import xface_core as xf
+    from xface_core import runner
+
+    xf.predict(xf.x_face(0.25, 1.0), 0.1, 0.1, margins=False)
+    assert runner.engine_is_cached()
