@@ -21,6 +21,7 @@ from typing import Any, Protocol
 from xface_core.atlas import AcceptanceAtlas
 from xface_core.predict import predict
 from xface_core.result import Prediction
+from xface_core.runner import engine_is_cached
 from xface_ros.atlas_keeper import AtlasKeeper
 from xface_ros.config import NodeConfig
 from xface_ros.decision import (
@@ -35,10 +36,16 @@ from xface_ros.latest import LatestSlot, Received
 from xface_ros.recorder import Recorder
 from xface_ros.threadname import name_os_thread
 
-__all__ = ["LOG_THROTTLE_S", "Logger", "PredictionWorker", "warm_up_simulator"]
+__all__ = ["COMPILING_LOG", "LOG_THROTTLE_S", "Logger", "PredictionWorker", "warm_up_simulator"]
 
 #: Seconds between repeats of the same throttled log line.
 LOG_THROTTLE_S = 5.0
+
+#: Logged before a warm-up that compiles the simulator (numba's cache holds none of it).
+COMPILING_LOG = (
+    "compiling the simulator first (once per install: about 2 minutes on 2 cores); poses "
+    "wait, /diagnostics says warming up"
+)
 
 #: How long the worker waits for a pose before it checks whether to stop (s).
 _POLL_S = 0.2
@@ -198,6 +205,8 @@ class PredictionWorker:
 
     def _warm_up(self) -> None:
         t0 = time.perf_counter()
+        if not engine_is_cached():  # a fresh install: say why the first poses wait
+            self._logger.info(COMPILING_LOG)
         try:
             self._warm_up_simulator(self._config())
         except Exception as exc:  # reported again, per pose, by the predictions

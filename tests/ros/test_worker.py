@@ -162,6 +162,25 @@ def test_a_failed_warm_up_is_logged_and_ends_the_warm_up(
     assert any("warm-up prediction failed" in line for line in logger.lines["warning"])
 
 
+@pytest.mark.parametrize("cached", [False, True])
+def test_a_warm_up_that_compiles_says_so_first(
+    config: NodeConfig,
+    workers: list[PredictionWorker],
+    monkeypatch: pytest.MonkeyPatch,
+    cached: bool,
+) -> None:
+    from xface_ros import worker as worker_module
+
+    monkeypatch.setattr(worker_module, "engine_is_cached", lambda: cached)
+    publish, logger = Published(), FakeLogger()
+    worker = make_worker(config, publish, warm_up=lambda _config: None, logger=logger)
+    workers.append(worker)
+    worker.start()
+    worker.submit(at_start(0.0, 0.0), receive_ns=NOW_NS)
+    publish.wait_for(1)
+    assert (worker_module.COMPILING_LOG in logger.lines["info"]) is not cached
+
+
 def test_a_prediction_is_published_with_its_config_and_counted(config: NodeConfig) -> None:
     publish = Published()
     worker = make_worker(config, publish)
