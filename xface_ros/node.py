@@ -211,11 +211,7 @@ class _Predictor(Node):
             callback_group=ReadByPoseReader(),
         )
         # The poses are taken on a thread of their own, not by the executor (pose_reader).
-        self._pose_reader = PoseReader(
-            self.context,
-            [(pose_sub, self._on_pose), (cov_sub, self._on_pose_with_covariance)],
-            self.get_logger(),
-        )
+        self._pose_reader = PoseReader(self.context, [pose_sub, cov_sub], self.get_logger())
         self._pose_reader.start()
         plan_service = self.create_service(
             GetPlan,

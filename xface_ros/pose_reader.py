@@ -64,8 +64,9 @@ class ReadByPoseReader(CallbackGroup):
 
 
 class PoseReader:
-    """Takes every message of ``subscriptions`` on its own thread and calls its callback with
-    it, in arrival order per subscription; also runs the subscriptions' QoS-event handlers.
+    """Takes every message of ``subscriptions`` on its own thread and calls the
+    subscription's own callback with it, in arrival order per subscription; also runs the
+    subscriptions' QoS-event handlers.
 
     Start it with :meth:`start` once the subscriptions exist (each in a
     :class:`ReadByPoseReader` group) and :meth:`stop` it before they are destroyed. A
@@ -76,10 +77,10 @@ class PoseReader:
     def __init__(
         self,
         context: Context,
-        subscriptions: Sequence[tuple[Subscription, Callable[[Any], None]]],
+        subscriptions: Sequence[Subscription],
         logger: Any,
     ) -> None:
-        for sub, _ in subscriptions:
+        for sub in subscriptions:
             if not isinstance(sub.callback_group, ReadByPoseReader):
                 raise ValueError(
                     f"{sub.topic_name}: the executor would take its messages too "
@@ -116,7 +117,7 @@ class PoseReader:
 
     def _run(self) -> None:
         name_os_thread(THREAD_NAME)
-        subs = [sub for sub, _ in self._subscriptions]
+        subs = self._subscriptions
         # rclpy annotates Subscription.event_handlers as one handler; it is a list of them.
         events = [h for sub in subs for h in cast(Iterable[EventHandler], sub.event_handlers)]
         wait_set = _rclpy.WaitSet(len(subs), 1, 0, 0, 0, len(events), self._context.handle)
@@ -149,11 +150,11 @@ class PoseReader:
                 if event is not None and handler.callback is not None:
                     self._call(handler.callback, event)
         ready = wait_set.get_ready_entities("subscription")
-        for sub, callback in self._subscriptions:
+        for sub in subs:
             if sub.handle.pointer in ready:
-                self._take_all(sub, callback)
+                self._take_all(sub)
 
-    def _take_all(self, sub: Subscription, callback: Callable[[Any], None]) -> None:
+    def _take_all(self, sub: Subscription) -> None:
         """Every message waiting in ``sub``'s reader queue, oldest first (the slot the
         callback fills keeps the newest and counts the rest as dropped)."""
         while not self._stop.is_set():
@@ -161,7 +162,7 @@ class PoseReader:
             if taken is None:
                 return
             self.taken += 1
-            self._call(callback, taken[0])
+            self._call(sub.callback, taken[0])
 
     def _call(self, callback: Callable[[Any], None], arg: Any) -> None:
         try:

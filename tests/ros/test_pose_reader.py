@@ -118,7 +118,7 @@ def test_every_message_reaches_the_callback_in_order_on_the_reader_thread(ros: R
     sub = ros.node.create_subscription(
         Int32, "poses", got.add, RELIABLE, callback_group=ReadByPoseReader()
     )
-    reader = PoseReader(ros.context, [(sub, got.add)], ListLogger())
+    reader = PoseReader(ros.context, [sub], ListLogger())
     reader.start()
     try:
         publish_when_matched(ros.node, "poses", list(range(50)))
@@ -138,7 +138,7 @@ def test_two_subscriptions_are_read_by_one_reader(ros: Ros) -> None:
             ("poses_with_covariance", second, ReadByPoseReader()),
         )
     ]
-    reader = PoseReader(ros.context, [(subs[0], first.add), (subs[1], second.add)], ListLogger())
+    reader = PoseReader(ros.context, subs, ListLogger())
     reader.start()
     try:
         publish_when_matched(ros.node, "poses", [1, 2, 3])
@@ -161,7 +161,7 @@ def test_a_failing_callback_is_logged_and_the_reader_goes_on(ros: Ros) -> None:
     sub = ros.node.create_subscription(
         Int32, "poses", callback, RELIABLE, callback_group=ReadByPoseReader()
     )
-    reader = PoseReader(ros.context, [(sub, callback)], logger)
+    reader = PoseReader(ros.context, [sub], logger)
     reader.start()
     try:
         publish_when_matched(ros.node, "poses", [0, 1, 2])
@@ -177,7 +177,7 @@ def test_stop_ends_the_thread_and_is_idempotent(ros: Ros) -> None:
     sub = ros.node.create_subscription(
         Int32, "poses", lambda _: None, RELIABLE, callback_group=ReadByPoseReader()
     )
-    reader = PoseReader(ros.context, [(sub, lambda _: None)], ListLogger())
+    reader = PoseReader(ros.context, [sub], ListLogger())
     reader.start()
     assert reader.running
     reader.stop()
@@ -189,7 +189,7 @@ def test_stop_ends_the_thread_and_is_idempotent(ros: Ros) -> None:
 def test_a_subscription_the_executor_would_also_run_is_refused(ros: Ros) -> None:
     sub = ros.node.create_subscription(Int32, "poses", lambda _: None, RELIABLE)
     with pytest.raises(ValueError, match="ReadByPoseReader"):
-        PoseReader(ros.context, [(sub, lambda _: None)], ListLogger())
+        PoseReader(ros.context, [sub], ListLogger())
 
 
 def test_an_unexpected_failure_is_logged_and_the_reader_goes_on(ros: Ros) -> None:
@@ -197,7 +197,7 @@ def test_an_unexpected_failure_is_logged_and_the_reader_goes_on(ros: Ros) -> Non
     sub = ros.node.create_subscription(
         Int32, "poses", got.add, RELIABLE, callback_group=ReadByPoseReader()
     )
-    reader = PoseReader(ros.context, [(sub, got.add)], logger)
+    reader = PoseReader(ros.context, [sub], logger)
     original = reader._wait_and_take
     failures = [RuntimeError("rmw hiccup")]
 
