@@ -207,14 +207,10 @@ def _runs(mask: npt.NDArray[np.bool_], axis: int, reverse: bool) -> npt.NDArray[
     return np.moveaxis(out, 0, axis)
 
 
-def _safe_nodes(
-    atlas: AcceptanceAtlas, min_lateral_d: float, min_angle: float
-) -> npt.NDArray[np.bool_]:
-    """Nodes that seat with at least the required run of seated nodes either side (in whole
-    steps, so an under-estimate of the margins there)."""
+def _safe_nodes(atlas: AcceptanceAtlas, need_x: int, need_t: int) -> npt.NDArray[np.bool_]:
+    """Nodes that seat with at least ``need_x`` seated nodes either side along x0 and
+    ``need_t`` along theta0 (:func:`_required_runs`)."""
     seated = atlas.outcomes == Outcome.SEATED
-    need_x = math.ceil(min_lateral_d / atlas.lateral_step)
-    need_t = math.ceil(min_angle / atlas.angle_step)
     return np.asarray(
         seated
         & (_runs(seated, 0, False) >= need_x)
@@ -241,16 +237,21 @@ SAFE_KEPT = 4
 _SAFE = _KeptPerAtlas(SAFE_KEPT)
 
 
+def _required_runs(
+    atlas: AcceptanceAtlas, min_lateral_d: float, min_angle: float
+) -> tuple[int, int]:
+    """The margins (D, rad) in whole atlas steps along x0 and theta0, rounded up (so the safe
+    nodes under-estimate the margins there)."""
+    return math.ceil(min_lateral_d / atlas.lateral_step), math.ceil(min_angle / atlas.angle_step)
+
+
 def _safe_coordinates(atlas: AcceptanceAtlas, min_lateral_d: float, min_angle: float) -> FloatArray:
     """(x0 in D, theta0) of :func:`_safe_nodes`, an (n, 2) array, kept per atlas for the
     last SAFE_KEPT requirements (in whole atlas steps, which is all the nodes depend on)."""
-    key = (
-        math.ceil(min_lateral_d / atlas.lateral_step),
-        math.ceil(min_angle / atlas.angle_step),
-    )
+    key = _required_runs(atlas, min_lateral_d, min_angle)
 
     def make() -> FloatArray:
-        good = _safe_nodes(atlas, min_lateral_d, min_angle)
+        good = _safe_nodes(atlas, *key)
         nodes = np.stack(np.meshgrid(atlas.x0, atlas.theta0, indexing="ij"), axis=-1)[good]
         return np.asarray(nodes)
 

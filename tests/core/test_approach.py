@@ -168,12 +168,12 @@ def test_nearest_are_the_first_of_a_stable_sort(k: int) -> None:
 def test_safe_nodes_are_found_once_per_requirement(
     coarse_v_atlas: xf.AcceptanceAtlas, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    calls: list[tuple[float, float]] = []
+    calls: list[tuple[int, int]] = []
     inner = approach._safe_nodes
 
-    def counting(atlas, min_lateral_d, min_angle):  # type: ignore[no-untyped-def]
-        calls.append((min_lateral_d, min_angle))
-        return inner(atlas, min_lateral_d, min_angle)
+    def counting(atlas, need_x, need_t):  # type: ignore[no-untyped-def]
+        calls.append((need_x, need_t))
+        return inner(atlas, need_x, need_t)
 
     monkeypatch.setattr(approach, "_safe_nodes", counting)
     monkeypatch.setattr(approach, "_SAFE", approach._KeptPerAtlas(approach.SAFE_KEPT))
@@ -187,5 +187,6 @@ def test_safe_nodes_are_found_once_per_requirement(
     assert len(calls) == 2
     first = approach._safe_coordinates(coarse_v_atlas, 0.05 / design.width, 0.05)
     assert first is approach._safe_coordinates(coarse_v_atlas, 0.05 / design.width, 0.05)
-    good = approach._safe_nodes(coarse_v_atlas, 0.05 / design.width, 0.05)
+    runs = approach._required_runs(coarse_v_atlas, 0.05 / design.width, 0.05)
+    good = approach._safe_nodes(coarse_v_atlas, *runs)
     assert first.shape == (int(good.sum()), 2)
