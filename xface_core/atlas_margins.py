@@ -16,6 +16,7 @@ one between two of its nodes).
 
 from __future__ import annotations
 
+import itertools
 import math
 import os
 import threading
@@ -63,14 +64,36 @@ class _HalfAxis:
     axis: int  # 0: x0, 1: theta0
     direction: float
     offsets: npt.NDArray[np.float64]  # the atlas grid lines crossed, nearest first
-    predicted: npt.NDArray[np.int8]  # atlas outcome there, -1 when its two nodes disagree
+    first: int  # grid index of the first crossing along the axis (none when offsets is empty)
     limit: float
-    nodes: npt.NDArray[np.intp]  # grid index of each crossing along the axis
     lines: tuple[int, int]  # the two grid lines either side of the query's line
     weight: float  # where the query's line lies between them (0: on the first, 1: second)
     lo: float = 0.0  # largest offset known to have the query's outcome
     hi: float = math.inf  # smallest offset known to differ (inf: none yet)
     cursor: int = 0  # next crossing to read from the atlas
+
+    @property
+    def step(self) -> int:
+        """+1 or -1: the grid index's direction along the half-axis."""
+        return 1 if self.direction > 0.0 else -1
+
+    @property
+    def last(self) -> int:
+        """Grid index of the last crossing within the search (``first`` less one step when
+        there is none)."""
+        return self.first + self.step * (self.offsets.size - 1)
+
+    def predicted(self, atlas: AcceptanceAtlas) -> npt.NDArray[np.int8]:
+        """The atlas's outcome at each crossing: the common outcome of the two grid lines'
+        nodes either side of the query's line, -1 where they disagree. Read only by the
+        walk of :func:`_confirm` (most queries never need it)."""
+        n, step = self.offsets.size, self.step
+        nodes = np.arange(self.first, self.first + step * n, step) if n else np.arange(0)
+        out = atlas.outcomes
+        a, b = (out[nodes, self.lines[0]], out[nodes, self.lines[1]]) if self.axis == 0 else (
+            out[self.lines[0], nodes], out[self.lines[1], nodes]
+        )  # fmt: skip
+        return np.where(a == b, a, -1).astype(np.int8)
 
 
 class _Sims(NamedTuple):
@@ -90,36 +113,28 @@ def _sims_for(atlas: AcceptanceAtlas, q: int, threads: int) -> _Sims:
 def _half_axes(
     atlas: AcceptanceAtlas, x_d: float, theta0: float, limit_x: float
 ) -> list[_HalfAxis]:
-    """The four half-axis searches with the atlas's outcomes along them."""
+    """The four half-axis searches: the atlas grid lines each crosses within its limit."""
     # atlas.cell_index for one pose, without its array conversions (about 20 us).
     i = math.floor((x_d - atlas.x0[0]) / atlas.lateral_step)
     k = math.floor((theta0 - atlas.theta0[0]) / atlas.angle_step)
     i, k = min(max(i, 0), atlas.x0.size - 2), min(max(k, 0), atlas.theta0.size - 2)
-    out = atlas.outcomes
-    row = np.where(out[:, k] == out[:, k + 1], out[:, k], -1).astype(np.int8)
-    col = np.where(out[i, :] == out[i + 1, :], out[i, :], -1).astype(np.int8)
     w_theta = (theta0 - atlas.theta0[k]) / atlas.angle_step
     w_x = (x_d - atlas.x0[i]) / atlas.lateral_step
     axes = []
-    for axis, coords, line, value, limit, lines, weight in (
-        (0, atlas.x0, row, x_d, limit_x, (k, k + 1), w_theta),
-        (1, atlas.theta0, col, theta0, math.pi, (i, i + 1), w_x),
+    for axis, coords, value, limit, lines, weight in (
+        (0, atlas.x0, x_d, limit_x, (k, k + 1), w_theta),
+        (1, atlas.theta0, theta0, math.pi, (i, i + 1), w_x),
     ):
-        for direction in (-1.0, 1.0):
-            # The grid lines strictly ahead, nearest first (the coordinates ascend), up to
-            # the search's limit.
-            if direction > 0.0:
-                ahead = np.arange(int(np.searchsorted(coords, value, side="right")), coords.size)
-            else:
-                ahead = np.arange(int(np.searchsorted(coords, value, side="left")) - 1, -1, -1)
-            off = (coords[ahead] - value) * direction
+        # The grid lines strictly ahead, nearest first (the coordinates ascend), up to the
+        # search's limit. Ahead downwards, value - c is exactly -(c - value).
+        right = int(np.searchsorted(coords, value, side="right"))
+        left = int(np.searchsorted(coords, value, side="left"))
+        for direction, first, off in (
+            (-1.0, left - 1, value - coords[left - 1 :: -1] if left else coords[:0]),
+            (1.0, right, coords[right:] - value),
+        ):
             n = int(np.searchsorted(off, limit, side="right"))
-            axes.append(
-                _HalfAxis(
-                    axis, direction, off[:n], line[ahead[:n]], limit, ahead[:n], lines,
-                    float(weight),
-                )
-            )  # fmt: skip
+            axes.append(_HalfAxis(axis, direction, off[:n], first, limit, lines, float(weight)))
     return axes
 
 
@@ -222,22 +237,71 @@ def _snake_chunks(n: int, parts: int) -> list[npt.NDArray[np.intp]]:
     return [np.flatnonzero(owner == p) for p in range(parts)]
 
 
+class _Changes(NamedTuple):
+    """Per atlas node, the grid index of the nearest node along each axis with another
+    outcome: ``up[axis]`` the next one (the axis's size when none), ``down[axis]`` the one
+    before (-1 when none). Axis 0 runs along x0 (the first index), axis 1 along theta0."""
+
+    up: tuple[npt.NDArray[np.int32], npt.NDArray[np.int32]]
+    down: tuple[npt.NDArray[np.int32], npt.NDArray[np.int32]]
+
+
+def _changes_along(out: npt.NDArray[np.int8]) -> tuple[npt.NDArray[np.int32], ...]:
+    """``(up, down)`` of :class:`_Changes` along the first axis of ``out``."""
+    n = out.shape[0]
+    differ = out[1:] != out[:-1]  # node j + 1 differs from node j
+    j = np.arange(n - 1, dtype=np.int32)[:, None]
+    # up[i]: the first j + 1 > i with a change at j >= i; down[i]: the last j < i with one.
+    up = np.full(out.shape, n, dtype=np.int32)
+    up[:-1] = np.minimum.accumulate(np.where(differ, j + 1, n)[::-1], axis=0)[::-1]
+    down = np.full(out.shape, -1, dtype=np.int32)
+    down[1:] = np.maximum.accumulate(np.where(differ, j, -1), axis=0)
+    return up, down
+
+
+_CHANGES: dict[int, tuple[npt.NDArray[np.int8], _Changes]] = {}
+_CHANGES_SIZE = 8
+_CHANGES_LOCK = threading.Lock()
+
+
+def _changes(atlas: AcceptanceAtlas) -> _Changes:
+    """The atlas's :class:`_Changes`, made once per outcome array (shared by the atlas's
+    copies; a few milliseconds and 4 bytes a node per table): a grid line's first flip
+    ahead of the query is then read, not searched, about 30 us a query."""
+    out = atlas.outcomes
+    with _CHANGES_LOCK:
+        hit = _CHANGES.get(id(out))
+        if hit is not None and hit[0] is out:
+            return hit[1]
+    up0, down0 = _changes_along(out)
+    up1, down1 = (a.T for a in _changes_along(out.T))
+    made = _Changes((up0, up1), (down0, down1))
+    with _CHANGES_LOCK:
+        if len(_CHANGES) >= _CHANGES_SIZE:
+            _CHANGES.clear()
+        _CHANGES[id(out)] = (out, made)
+    return made
+
+
 def _line_flip(atlas: AcceptanceAtlas, h: _HalfAxis, line: int, q: int) -> FlipKey | None:
     """The grid segment where ``line`` first flips from ``q`` along the half-axis, or None
     when the line does not have ``q`` at the node before its first node ahead of the query,
     or never leaves ``q`` within the search."""
-    along = atlas.outcomes[:, line] if h.axis == 0 else atlas.outcomes[line, :]
-    step = 1 if h.direction > 0 else -1
-    if h.nodes.size == 0:
+    if h.offsets.size == 0:
         return None
-    first = int(h.nodes[0])
-    if not 0 <= first - step < along.size or int(along[first - step]) != q:
+    step = h.step
+    before = h.first - step
+    size = atlas.outcomes.shape[h.axis]
+    if not 0 <= before < size:
         return None
-    codes = along[h.nodes]
-    differ = np.flatnonzero(codes != q)
-    if differ.size == 0:
+    at = (before, line) if h.axis == 0 else (line, before)
+    if int(atlas.outcomes[at]) != q:
         return None
-    node = int(h.nodes[int(differ[0])])
+    # The node before has q, so the first node ahead without q is its nearest change.
+    changes = _changes(atlas)
+    node = int((changes.up if step > 0 else changes.down)[h.axis][at])
+    if (node - h.last) * step > 0:  # beyond the search's last crossing (or none)
+        return None
     return (h.axis, line, min(node, node - step))
 
 
@@ -296,14 +360,12 @@ def _probe(
     """Exact outcomes at offsets along several half-axes: one batch, split over threads."""
     if not tries:
         return []
-    poses = [_poses(x_d, theta0, h.axis, h.direction, off) for h, off in tries]
-    codes = _outcomes_split(
-        atlas,
-        np.concatenate([x for x, _ in poses]),
-        np.concatenate([t for _, t in poses]),
-        sims,
-    )
-    return np.split(codes, np.cumsum([off.size for _, off in tries])[:-1])
+    ends = list(itertools.accumulate(off.size for _, off in tries))
+    xs, ts = np.empty(ends[-1]), np.empty(ends[-1])
+    for (h, off), start, end in zip(tries, [0, *ends], ends, strict=False):
+        xs[start:end], ts[start:end] = _poses(x_d, theta0, h.axis, h.direction, off)
+    codes = _outcomes_split(atlas, xs, ts, sims)
+    return [codes[start:end] for start, end in zip([0, *ends], ends, strict=False)]
 
 
 def _gallop(
@@ -348,8 +410,9 @@ def _confirm(
     """Walk one half-axis on the atlas to its first flip and confirm it exactly: sets
     ``h.lo`` and ``h.hi`` to a simulated bracket (``hi`` stays inf: no flip on the atlas,
     ``lo`` is then the last crossing inside it)."""
+    predicted = h.predicted(atlas)
     while True:
-        ahead = np.flatnonzero(h.predicted[h.cursor :] != q)
+        ahead = np.flatnonzero(predicted[h.cursor :] != q)
         if ahead.size == 0:
             if h.offsets.size:
                 h.lo = max(h.lo, float(h.offsets[-1]))

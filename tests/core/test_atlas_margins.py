@@ -316,3 +316,65 @@ def test_a_miss_is_confirmed_by_its_approach_alone_with_the_same_margins(
         xf.margins_from_atlas(full, x, t, o) for (x, t), o in zip(queries, outcomes, strict=True)
     ]
     assert fast == slow
+
+
+@settings(max_examples=40)
+@given(
+    st.integers(2, 9), st.integers(2, 9), st.integers(1, 3), st.integers(0, 2**32 - 1)
+)  # fmt: skip
+def test_changes_are_the_nearest_other_outcome_along_each_axis(
+    rows: int, cols: int, kinds: int, seed: int
+) -> None:
+    out = np.random.default_rng(seed).integers(0, kinds + 1, (rows, cols)).astype(np.int8)
+    up, down = atlas_margins._changes_along(out)
+    for i in range(rows):
+        for k in range(cols):
+            later = [j for j in range(i + 1, rows) if out[j, k] != out[i, k]]
+            earlier = [j for j in range(i) if out[j, k] != out[i, k]]
+            assert up[i, k] == (later[0] if later else rows)
+            assert down[i, k] == (earlier[-1] if earlier else -1)
+
+
+def _scan_line_flip(
+    atlas: xf.AcceptanceAtlas, h: atlas_margins._HalfAxis, line: int, q: int
+) -> tuple[int, int, int] | None:
+    """The definition of a grid line's first flip: walk the line node by node."""
+    along = atlas.outcomes[:, line] if h.axis == 0 else atlas.outcomes[line, :]
+    nodes = [h.first + h.step * n for n in range(h.offsets.size)]
+    before = h.first - h.step
+    if not nodes or not 0 <= before < along.size or along[before] != q:
+        return None
+    node = next((n for n in nodes if along[n] != q), None)
+    return None if node is None else (h.axis, line, min(node, node - h.step))
+
+
+@settings(max_examples=25)
+@given(x0=st.floats(-2.4, 2.4), theta0=st.floats(-1.6, 1.6), limit=st.floats(0.05, 4.5))
+def test_a_line_flip_read_from_the_changes_is_the_first_one_a_walk_finds(
+    v_atlas: xf.AcceptanceAtlas, x0: float, theta0: float, limit: float
+) -> None:
+    for h in atlas_margins._half_axes(v_atlas, x0, theta0, limit):
+        for line in h.lines:
+            for q in (int(xf.Outcome.SEATED), int(xf.Outcome.BAD_MATE)):
+                expected = _scan_line_flip(v_atlas, h, line, q)
+                assert atlas_margins._line_flip(v_atlas, h, line, q) == expected
+
+
+def test_half_axes_cross_the_grid_lines_ahead_within_the_limit(
+    v_atlas: xf.AcceptanceAtlas,
+) -> None:
+    x0, theta0, limit = 0.11, -0.3, 0.2
+    minus_x, plus_x, minus_t, plus_t = atlas_margins._half_axes(v_atlas, x0, theta0, limit)
+    ahead = v_atlas.x0[(v_atlas.x0 > x0) & (v_atlas.x0 - x0 <= limit)]
+    behind = v_atlas.x0[(v_atlas.x0 < x0) & (x0 - v_atlas.x0 <= limit)][::-1]
+    assert np.array_equal(plus_x.offsets, ahead - x0)
+    assert np.array_equal(minus_x.offsets, x0 - behind)
+    assert v_atlas.x0[plus_x.first] == ahead[0]
+    assert v_atlas.x0[minus_x.first] == behind[0]
+    assert minus_t.offsets[-1] <= math.pi
+    assert plus_t.offsets[-1] <= math.pi
+    # The atlas's outcome at each crossing: the two grid rows either side agree, or -1.
+    k0, k1 = plus_x.lines
+    nodes = plus_x.first + np.arange(plus_x.offsets.size)
+    a, b = v_atlas.outcomes[nodes, k0], v_atlas.outcomes[nodes, k1]
+    assert np.array_equal(plus_x.predicted(v_atlas), np.where(a == b, a, -1))
