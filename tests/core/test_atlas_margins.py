@@ -322,17 +322,20 @@ def test_a_miss_is_confirmed_by_its_approach_alone_with_the_same_margins(
 @given(
     st.integers(2, 9), st.integers(2, 9), st.integers(1, 3), st.integers(0, 2**32 - 1)
 )  # fmt: skip
-def test_changes_are_the_nearest_other_outcome_along_each_axis(
+def test_the_nearest_change_is_the_nearest_other_outcome_along_each_axis(
     rows: int, cols: int, kinds: int, seed: int
 ) -> None:
     out = np.random.default_rng(seed).integers(0, kinds + 1, (rows, cols)).astype(np.int8)
-    up, down = atlas_margins._changes_along(out)
+    changes = (atlas_margins._changes_along(out), atlas_margins._changes_along(out.T))
     for i in range(rows):
         for k in range(cols):
-            later = [j for j in range(i + 1, rows) if out[j, k] != out[i, k]]
-            earlier = [j for j in range(i) if out[j, k] != out[i, k]]
-            assert up[i, k] == (later[0] if later else rows)
-            assert down[i, k] == (earlier[-1] if earlier else -1)
+            for axis, line, node, along in ((0, k, i, out[:, k]), (1, i, k, out[i, :])):
+                later = [j for j in range(node + 1, along.size) if along[j] != along[node]]
+                earlier = [j for j in range(node) if along[j] != along[node]]
+                up = atlas_margins._nearest_change(changes, axis, line, node, 1)
+                down = atlas_margins._nearest_change(changes, axis, line, node, -1)
+                assert up == (later[0] if later else None)
+                assert down == (earlier[-1] if earlier else None)
 
 
 def _scan_line_flip(
