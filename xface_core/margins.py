@@ -7,12 +7,13 @@ import math
 from dataclasses import replace
 
 import numpy as np
+import numpy.typing as npt
 
 from .geometry import FaceDesign
 from .outcome import Outcome
 from .physics import Physics, SolverSettings
 from .result import Margins
-from .runner import clear_start_height, predict_batch
+from .runner import clear_start_height, run_flat
 
 __all__ = ["flip_distance", "outcome_margins", "reach_margins"]
 
@@ -58,7 +59,7 @@ def flip_distance(
         xs = np.full(chunk.shape, x0)
         ts = np.full(chunk.shape, theta0)
         (xs if axis == 0 else ts)[:] += direction * chunk * scale
-        codes = predict_batch(design, xs, ts, physics=physics, y_start=y_start).outcome
+        codes = _outcomes(design, xs, ts, physics, y_start)
         found = np.flatnonzero(codes != outcome)
         if found.size:
             flip = start + int(found[0])
@@ -72,12 +73,27 @@ def flip_distance(
         x, t = (
             (x0 + direction * mid * scale, theta0) if axis == 0 else (x0, theta0 + direction * mid)
         )
-        code = predict_batch(design, [x], [t], physics=physics, y_start=y_start).outcome[0]
+        code = _outcomes(design, np.array([x]), np.array([t]), physics, y_start)[0]
         if code == outcome:
             lo = mid
         else:
             hi = mid
     return hi * scale
+
+
+def _outcomes(
+    design: FaceDesign,
+    x0: npt.NDArray[np.float64],
+    theta0: npt.NDArray[np.float64],
+    physics: Physics,
+    y_start: float | None,
+) -> npt.NDArray[np.void]:
+    """``predict_batch(design, x0, theta0, physics=physics, y_start=y_start).outcome`` for
+    flat arrays of poses (length, rad), with the same conversions to units of D but without
+    its broadcasting and result arrays: those cost about 25 us a call, and a search makes
+    about fifty calls of one pose (its bisection steps)."""
+    ys = None if y_start is None else np.full(x0.shape, y_start, dtype=np.float64) / design.width
+    return run_flat(design, x0 / design.width, theta0, physics, None, ys)["outcome"]
 
 
 def reach_margins(design: FaceDesign, x0: float, theta0: float, outcome: Outcome) -> Margins | None:

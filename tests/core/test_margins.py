@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 
 import xface_core as xf
+from xface_core import margins
 from xface_core.margins import ANGLE_RESOLUTION, LATERAL_RESOLUTION
 
 
@@ -119,3 +121,18 @@ def test_only_a_miss_started_clear_of_the_base_is_searched_by_its_approach() -> 
     assert search_physics(design, physics, xf.Outcome.NO_CONTACT, clear).settings.max_events == 1
     assert search_physics(design, physics, xf.Outcome.NO_CONTACT, 0.5 * clear) is physics
     assert search_physics(design, physics, xf.Outcome.SEATED, None) is physics
+
+
+@pytest.mark.parametrize("y_start", [None, 0.12, 0.02])
+def test_the_search_outcomes_are_predict_batch_outcomes(y_start: float | None) -> None:
+    # The search's own call to the engine skips predict_batch's broadcasting, not its
+    # conversions: the same outcomes for poses in length units, at any start (0.02 m is
+    # below the base for most angles: INVALID_INPUT there too).
+    design = xf.v_face(0.5, 1.0, width=0.05)
+    rng = np.random.default_rng(4)
+    xs, ts = rng.uniform(-0.1, 0.1, 40), rng.uniform(-1.5, 1.5, 40)
+    physics = xf.Physics()
+    ours = margins._outcomes(design, xs, ts, physics, y_start)
+    theirs = xf.predict_batch(design, xs, ts, physics=physics, y_start=y_start).outcome
+    assert np.array_equal(ours, theirs)
+    assert len(set(theirs.tolist())) >= 2
