@@ -241,8 +241,9 @@ def _snake_chunks(n: int, parts: int) -> list[npt.NDArray[np.intp]]:
 #: Where the outcome changes along each grid line of an atlas, per axis (0: along x0, the
 #: first index; 1: along theta0): ``changes[axis][line]`` lists, ascending, each node ``j``
 #: of the line whose next node ``j + 1`` has another outcome. A boundary crosses few nodes
-#: of a line, so the lists are short (a few thousand entries for the node's atlas); plain
-#: lists, because ``bisect`` on them costs a tenth of ``np.searchsorted`` on a slice.
+#: of a line, so the lists are short (a few thousand entries for the node's atlas). Plain
+#: lists, searched with ``bisect``: a query's eight lookups took 19 us, against 36 us with
+#: ``np.searchsorted`` on slices of arrays.
 _Changes = tuple[list[list[int]], list[list[int]]]
 
 
@@ -271,7 +272,7 @@ _CHANGES_LOCK = threading.Lock()
 
 
 def _changes(atlas: AcceptanceAtlas) -> _Changes:
-    """The atlas's :class:`_Changes`, made once per outcome array (shared by the atlas's
+    """The atlas's :data:`_Changes`, made once per outcome array (shared by the atlas's
     copies): a grid line's first flip ahead of the query is then looked up, not searched."""
     out = atlas.outcomes
     with _CHANGES_LOCK:
