@@ -89,7 +89,7 @@ class _HalfAxis:
         nodes either side of the query's line, -1 where they disagree. Read only by the
         walk of :func:`_confirm` (most queries never need it)."""
         n, step = self.offsets.size, self.step
-        nodes = np.arange(self.first, self.first + step * n, step) if n else np.arange(0)
+        nodes = np.arange(self.first, self.first + step * n, step)
         out = atlas.outcomes
         a, b = (out[nodes, self.lines[0]], out[nodes, self.lines[1]]) if self.axis == 0 else (
             out[self.lines[0], nodes], out[self.lines[1], nodes]
@@ -364,11 +364,12 @@ def _probe(
     if not tries:
         return []
     ends = list(itertools.accumulate(off.size for _, off in tries))
+    spans = list(zip([0, *ends[:-1]], ends, strict=True))
     xs, ts = np.empty(ends[-1]), np.empty(ends[-1])
-    for (h, off), start, end in zip(tries, [0, *ends], ends, strict=False):
+    for (h, off), (start, end) in zip(tries, spans, strict=True):
         xs[start:end], ts[start:end] = _poses(x_d, theta0, h.axis, h.direction, off)
     codes = _outcomes_split(atlas, xs, ts, sims)
-    return [codes[start:end] for start, end in zip([0, *ends], ends, strict=False)]
+    return [codes[start:end] for start, end in spans]
 
 
 def _gallop(

@@ -13,7 +13,7 @@ from .geometry import FaceDesign
 from .outcome import Outcome
 from .physics import Physics, SolverSettings
 from .result import Margins
-from .runner import clear_start_height, run_flat
+from .runner import clear_start_height, run_flat_lengths
 
 __all__ = ["flip_distance", "outcome_margins", "reach_margins"]
 
@@ -89,11 +89,9 @@ def _outcomes(
     y_start: float | None,
 ) -> npt.NDArray[np.void]:
     """``predict_batch(design, x0, theta0, physics=physics, y_start=y_start).outcome`` for
-    flat arrays of poses (length, rad), with the same conversions to units of D but without
-    its broadcasting and result arrays: those cost about 25 us a call, and a search makes
-    about fifty calls of one pose (its bisection steps)."""
-    ys = None if y_start is None else np.full(x0.shape, y_start, dtype=np.float64) / design.width
-    return run_flat(design, x0 / design.width, theta0, physics, None, ys)["outcome"]
+    flat arrays of poses (length, rad) and one start height (length) or None."""
+    ys = None if y_start is None else np.full(x0.shape, y_start, dtype=np.float64)
+    return run_flat_lengths(design, x0, theta0, physics, None, ys)["outcome"]
 
 
 def reach_margins(design: FaceDesign, x0: float, theta0: float, outcome: Outcome) -> Margins | None:

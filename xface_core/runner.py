@@ -34,6 +34,7 @@ __all__ = [
     "engine_options",
     "predict_batch",
     "run_flat",
+    "run_flat_lengths",
     "simulate_pose",
     "start_height",
     "start_heights",
@@ -317,15 +318,15 @@ def predict_batch(
         xb, tb = np.broadcast_arrays(
             np.asarray(x0, dtype=np.float64), np.asarray(theta0, dtype=np.float64)
         )
-        ys_d = None
+        ys = None
     else:
         xb, tb, yb = np.broadcast_arrays(
             np.asarray(x0, dtype=np.float64),
             np.asarray(theta0, dtype=np.float64),
             np.asarray(y_start, dtype=np.float64),
         )
-        ys_d = (yb / design.width).ravel()
-    runs = run_flat(design, (xb / design.width).ravel(), tb.ravel(), phys, threads, ys_d)
+        ys = yb.ravel()
+    runs = run_flat_lengths(design, xb.ravel(), tb.ravel(), phys, threads, ys)
     shape = xb.shape
     return BatchResult(
         outcome=runs["outcome"].astype(np.int8).reshape(shape),
@@ -334,6 +335,22 @@ def predict_batch(
         steps=runs["steps"].reshape(shape),
         events=runs["events"].reshape(shape),
     )
+
+
+def run_flat_lengths(
+    design: FaceDesign,
+    x0: FloatArray,
+    theta0: FloatArray,
+    physics: Physics,
+    threads: int | None = None,
+    y_start: FloatArray | None = None,
+) -> npt.NDArray[np.void]:
+    """:func:`run_flat` for flat arrays of poses in the design's length unit (``x0`` and
+    ``y_start``; None: the default start): the conversion to units of D of
+    :func:`predict_batch`, for callers that need neither its broadcasting nor its result
+    arrays (about 25 us a call, which a margin search's fifty one-pose calls would pay)."""
+    ys = None if y_start is None else y_start / design.width
+    return run_flat(design, x0 / design.width, theta0, physics, threads, ys)
 
 
 def run_flat(
