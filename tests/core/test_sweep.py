@@ -7,6 +7,7 @@ import pytest
 
 import xface_core as xf
 from xface_core import Outcome
+from xface_core.paper import paper_table
 
 
 @pytest.mark.parametrize(("h", "rp"), [(0.0625, 1.0), (0.5, 2.0), (3.0314, 0.0), (16.0, 5.0)])
@@ -67,7 +68,7 @@ def test_guaranteed_rectangle_is_all_seated_and_maximal_in_area() -> None:
 
 def test_v_bound_table_reproduces_table_iii() -> None:
     t = xf.m_table("V", method="bound", theta_kind="paper")
-    assert np.array_equal(t.M, xf.paper.paper_table("V").M.astype(int))
+    assert np.array_equal(t.M, paper_table("V").M.astype(int))
 
 
 def test_table_does_not_depend_on_worker_count() -> None:
