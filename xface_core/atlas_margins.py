@@ -36,7 +36,8 @@ from .margins import (
     ANGLE_STEP,
     LATERAL_RESOLUTION,
     LATERAL_STEP,
-    flip_distance,
+    HalfAxisSearch,
+    flip_distances,
     outcome_margins,
     reach_margins,
     search_physics,
@@ -470,36 +471,17 @@ def _bisect_all(
                 h.hi = mid
 
 
-def _beyond_atlas(
-    atlas: AcceptanceAtlas,
-    x0: float,
-    theta0: float,
-    outcome: Outcome,
-    h: _HalfAxis,
-    resolution: float,
-    sims: _Sims,
-) -> float:
+def _scan_past_atlas(h: _HalfAxis, resolution: float) -> HalfAxisSearch | None:
     """The exact scan from the last atlas crossing (``h.lo``) to the end of the exact
-    search's range: its last node is ``ceil(limit / step) * step``, so the stretch between
-    the atlas's last crossing and that node is checked too (a flip there was missed once)."""
+    search's range (None: nothing left): its last node is ``ceil(limit / step) * step``, so
+    the stretch between the atlas's last crossing and that node is checked too (a flip there
+    was missed once)."""
     step = LATERAL_STEP if h.axis == 0 else ANGLE_STEP
     last = math.ceil(h.limit / step - 1e-12) * step
     remaining = last - h.lo
     if remaining <= 0.0:
-        return math.inf
-    return flip_distance(
-        atlas.design,
-        x0,
-        theta0,
-        outcome,
-        axis=h.axis,
-        direction=h.direction,
-        limit=last,
-        step=min(step, remaining),
-        resolution=resolution,
-        physics=sims.physics,
-        first=h.lo,
-    )
+        return None
+    return HalfAxisSearch(h.axis, h.direction, last, min(step, remaining), resolution, h.lo)
 
 
 def margins_from_atlas(
@@ -579,13 +561,19 @@ def margins_from_atlas(
         if math.isinf(h.hi):
             _confirm(atlas, x_d, theta0, q, h, sims)
     _bisect_all(atlas, x_d, theta0, q, axes, (lateral_res, angle_res), sims)
-    found = []
-    for h in axes:
-        if math.isinf(h.hi):
-            res = lateral_res if h.axis == 0 else angle_res
-            found.append(_beyond_atlas(atlas, x0, theta0, outcome, h, res, sims))
-        else:
-            found.append(h.hi * (design.width if h.axis == 0 else 1.0))
+    found = [h.hi * (design.width if h.axis == 0 else 1.0) for h in axes]
+    # Half-axes with no flip on the atlas: the exact scan past it, all in lockstep.
+    beyond = [
+        (n, _scan_past_atlas(h, lateral_res if h.axis == 0 else angle_res))
+        for n, h in enumerate(axes)
+        if math.isinf(h.hi)
+    ]
+    scans = [(n, search) for n, search in beyond if search is not None]
+    distances = flip_distances(
+        design, x0, theta0, outcome, [search for _, search in scans], physics=sims.physics
+    )
+    for (n, _), distance in zip(scans, distances, strict=True):
+        found[n] = distance
     return Margins(
         lateral_minus=found[0],
         lateral_plus=found[1],

@@ -136,3 +136,84 @@ def test_the_search_outcomes_are_predict_batch_outcomes(y_start: float | None) -
     theirs = xf.predict_batch(design, xs, ts, physics=physics, y_start=y_start).outcome
     assert np.array_equal(ours, theirs)
     assert len(set(theirs.tolist())) >= 2
+
+
+def _reference_flip(
+    design: xf.FaceDesign, x0: float, theta0: float, outcome: xf.Outcome,
+    half: margins.HalfAxisSearch, y_start: float | None,
+) -> float:  # fmt: skip
+    """The exact search of one half-axis written plainly, one batch or midpoint at a time
+    through ``predict_batch`` (the algorithm before the half-axes ran in lockstep)."""
+    scale = design.width if half.axis == 0 else 1.0
+    n = max(1, math.ceil((half.limit - half.first) / half.step))
+    offsets = half.first + np.arange(1, n + 1) * half.step
+
+    def codes(off: np.ndarray) -> np.ndarray:
+        xs = x0 + half.direction * off * scale if half.axis == 0 else np.full(off.shape, x0)
+        ts = theta0 + half.direction * off if half.axis == 1 else np.full(off.shape, theta0)
+        return xf.predict_batch(design, xs, ts, y_start=y_start).outcome
+
+    for start in range(0, offsets.size, margins.SCAN_BATCH):
+        found = np.flatnonzero(codes(offsets[start : start + margins.SCAN_BATCH]) != outcome)
+        if found.size:
+            hi = float(offsets[start + int(found[0])])
+            lo = hi - half.step
+            while hi - lo > half.resolution:
+                mid = 0.5 * (lo + hi)
+                if codes(np.array([mid]))[0] == outcome:
+                    lo = mid
+                else:
+                    hi = mid
+            return hi * scale
+    return math.inf
+
+
+@pytest.mark.parametrize(
+    ("face", "x0", "theta0", "y_start"),
+    [("X", 0.3, 0.2, None), ("V", -0.4, -0.3, None), ("S", 0.2, 0.1, 2.5), ("X", 1.5, 0.3, None)],
+)
+def test_half_axes_in_lockstep_find_what_each_finds_alone(
+    face: str, x0: float, theta0: float, y_start: float | None
+) -> None:
+    design = xf.make_face(face, 1.0, 1.0)
+    outcome = xf.predict(design, x0, theta0, y_start=y_start, path=False).outcome
+    searches = [
+        margins.HalfAxisSearch(0, -1.0, 2.0, margins.LATERAL_STEP, 1e-4),
+        margins.HalfAxisSearch(0, 1.0, 2.0, 0.1, 1e-3, first=0.05),
+        margins.HalfAxisSearch(1, -1.0, math.pi, margins.ANGLE_STEP, 1e-5),
+        margins.HalfAxisSearch(1, 1.0, 0.3, 0.07, 1e-5, first=0.01),
+    ]
+    together = margins.flip_distances(
+        design, x0, theta0, outcome, searches, physics=xf.Physics(), y_start=y_start
+    )
+    alone = [_reference_flip(design, x0, theta0, outcome, s, y_start) for s in searches]
+    assert together == alone
+
+
+def test_an_exact_search_takes_as_many_engine_calls_as_its_longest_half_axis(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    calls = [0]
+    run = margins.run_flat_lengths
+
+    def counted(*args: object, **kwargs: object) -> object:
+        calls[0] += 1
+        return run(*args, **kwargs)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(margins, "run_flat_lengths", counted)
+    design = xf.x_face(0.25, 1.0)
+    outcome = xf.predict(design, 0.3, 0.2, path=False).outcome
+    alone = []
+    for axis, direction in ((0, -1.0), (0, 1.0), (1, -1.0), (1, 1.0)):
+        calls[0] = 0
+        margins.flip_distance(
+            design, 0.3, 0.2, outcome, axis=axis, direction=direction,
+            limit=2.0 * design.mated_distance if axis == 0 else math.pi,
+            step=margins.LATERAL_STEP if axis == 0 else margins.ANGLE_STEP,
+            resolution=LATERAL_RESOLUTION if axis == 0 else ANGLE_RESOLUTION,
+            physics=xf.Physics(),
+        )  # fmt: skip
+        alone.append(calls[0])
+    calls[0] = 0
+    margins.outcome_margins(design, 0.3, 0.2, outcome)
+    assert calls[0] == max(alone) < sum(alone)
