@@ -66,6 +66,15 @@ class _Search:
             return self.offsets[self.start : self.start + SCAN_BATCH]
         return np.array([0.5 * (self.lo + self.hi)])
 
+    def poses(
+        self, x0: float, theta0: float, probes: npt.NDArray[np.float64]
+    ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+        """The query moved by ``probes`` along this half-axis: (x0 (length), theta0)."""
+        moved = self.half.direction * probes
+        if self.half.axis == 0:
+            return x0 + moved * self.scale, np.full(probes.shape, theta0)
+        return np.full(probes.shape, x0), theta0 + moved
+
     def take(self, probes: npt.NDArray[np.float64], codes: npt.NDArray[np.void], q: int) -> None:
         """Advance by the outcomes ``codes`` of ``probes``."""
         if math.isnan(self.hi):
@@ -106,25 +115,16 @@ def flip_distances(
     q = int(outcome)
     while pending:
         probes = [search.probes() for search in pending]
-        xs = np.concatenate(
-            [
-                x0 + s.half.direction * p * s.scale if s.half.axis == 0 else np.full(p.shape, x0)
-                for s, p in zip(pending, probes, strict=True)
-            ]
-        )
-        ts = np.concatenate(
-            [
-                theta0 + s.half.direction * p if s.half.axis == 1 else np.full(p.shape, theta0)
-                for s, p in zip(pending, probes, strict=True)
-            ]
-        )
+        poses = [s.poses(x0, theta0, p) for s, p in zip(pending, probes, strict=True)]
+        xs = np.concatenate([x for x, _ in poses])
+        ts = np.concatenate([t for _, t in poses])
         codes = _outcomes(design, xs, ts, physics, y_start)
         at = 0
         for search, p in zip(pending, probes, strict=True):
             search.take(p, codes[at : at + p.size], q)
             at += p.size
         pending = [search for search in pending if search.result is None]
-    return [float(cast(float, search.result)) for search in states]
+    return [cast(float, search.result) for search in states]
 
 
 def flip_distance(

@@ -348,7 +348,7 @@ def run_flat_lengths(
     """:func:`run_flat` for flat arrays of poses in the design's length unit (``x0`` and
     ``y_start``; None: the default start): the conversion to units of D of
     :func:`predict_batch`, for callers that need neither its broadcasting nor its result
-    arrays (about 25 us a call, which a margin search's fifty one-pose calls would pay)."""
+    arrays (about 25 us a call, which a margin search's many small calls would pay)."""
     ys = None if y_start is None else y_start / design.width
     return run_flat(design, x0 / design.width, theta0, physics, threads, ys)
 
