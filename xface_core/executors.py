@@ -9,9 +9,13 @@ executor are accepted:
   that had not finished are submitted again, each at most ``retries`` more times.
 - any :class:`concurrent.futures.Executor` (threads, processes, ``mpi4py``'s, ...): used as
   given, never shut down here.
-- a ``dask.distributed.Client`` (anything with ``get_executor``): its executor. Dask itself
-  runs the tasks of a dead worker again (up to its ``allowed-failures``), so a
-  ``KilledWorker`` reaching us is final. Nothing here imports dask.
+- a ``dask.distributed.Client`` (anything with ``submit`` and ``get_executor``): its own
+  futures, waited on with ``distributed.as_completed``. Dask itself runs the tasks of a dead
+  worker again (up to its ``allowed-failures``), so a ``KilledWorker`` reaching us is final.
+  Not the client's ``concurrent.futures`` wrapper (``get_executor``): distributed 2026.8's
+  ``ClientExecutor`` reads a future's status again after fetching its result, and when the
+  worker that held the result dies in between (status "lost") it unpacks the result as an
+  error triple and fails a design that had finished. dask is imported only on this path.
 
 Results are handed to ``on_result`` in the calling thread as they arrive, in completion
 order; callers that need an order sort afterwards.
@@ -39,7 +43,10 @@ DEFAULT_RETRIES = 3
 
 
 class ClientLike(Protocol):
-    """What a ``dask.distributed.Client`` offers that we use."""
+    """What a ``dask.distributed.Client`` offers that we use (``get_executor`` only tells a
+    client from other objects; its futures come from ``submit``)."""
+
+    def submit(self, fn: Callable[..., Any], *args: Any, **kwargs: Any) -> Any: ...
 
     def get_executor(self, **kwargs: Any) -> Executor: ...
 
@@ -79,6 +86,16 @@ def _is_lost_worker(exc: BaseException) -> bool:
     return type(exc).__name__ == "KilledWorker"
 
 
+def _result(fut: Any, job: object) -> Any:
+    """The future's result; Dask giving up on the job (``KilledWorker``) as WorkerLost."""
+    try:
+        return fut.result()
+    except Exception as exc:
+        if _is_lost_worker(exc):
+            raise WorkerLost(f"{job}: the cluster gave up on it ({exc})") from None
+        raise
+
+
 def execute(
     fn: Callable[[J], R],
     jobs: Sequence[J],
@@ -91,7 +108,8 @@ def execute(
     """Call ``on_result(job, fn(job))`` for every job, running ``fn`` on the executor.
 
     On KeyboardInterrupt the jobs not yet started are cancelled, the running ones are
-    awaited and handed to ``on_result``, and the interrupt is raised again.
+    awaited and handed to ``on_result`` (on a Dask client: the finished ones are handed
+    over and the rest cancelled, running or not), and the interrupt is raised again.
 
     Raises
     ------
@@ -105,14 +123,16 @@ def execute(
         for job in jobs:
             on_result(job, fn(job))
         return
-    pool = _LocalPool(n_workers) if executor is None else None
-    if pool is not None:
-        target: Executor = pool.executor
+    pool: _LocalPool | None = None
+    target: Executor
+    if executor is None:
+        pool = _LocalPool(n_workers)
+        target = pool.executor
     elif isinstance(executor, Executor):
         target = executor
     else:
-        assert executor is not None
-        target = executor.get_executor(pure=False)
+        _execute_on_client(fn, jobs, on_result, executor)
+        return
     attempts = [0] * len(jobs)
     todo = list(range(len(jobs)))
     interrupted = False
@@ -133,6 +153,36 @@ def execute(
             pool.close(wait=not interrupted)
 
 
+def _execute_on_client(
+    fn: Callable[[J], R],
+    jobs: Sequence[J],
+    on_result: Callable[[J, R], None],
+    client: ClientLike,
+) -> None:
+    """``execute`` on a Dask client's own futures (see the module docstring for why).
+
+    On KeyboardInterrupt the results already computed are handed over and the rest cancelled.
+    """
+    from distributed import as_completed  # a client implies distributed is installed
+
+    futures = {client.submit(fn, job, pure=False): i for i, job in enumerate(jobs)}
+    handled: set[Any] = set()
+    try:
+        for fut in as_completed(list(futures)):  # type: ignore[no-untyped-call]
+            handled.add(fut)
+            i = futures[fut]
+            # The client's result(): it fetches again, after the task runs again, when the
+            # result's worker dies before the fetch.
+            on_result(jobs[i], _result(fut, jobs[i]))
+    except KeyboardInterrupt:
+        for fut, i in futures.items():
+            if fut not in handled and fut.status == "finished":
+                on_result(jobs[i], fut.result())
+            elif fut not in handled:
+                fut.cancel()
+        raise
+
+
 def _collect(
     futures: dict[Future[R], int],
     jobs: Sequence[J],
@@ -148,7 +198,7 @@ def _collect(
             handled.add(fut)
             i = futures[fut]
             try:
-                result = fut.result()
+                result = _result(fut, jobs[i])
             except BrokenProcessPool:
                 attempts[i] += 1
                 if attempts[i] > retries:
@@ -157,10 +207,6 @@ def _collect(
                     ) from None
                 again.append(i)
                 continue
-            except Exception as exc:
-                if _is_lost_worker(exc):
-                    raise WorkerLost(f"{jobs[i]}: the cluster gave up on it ({exc})") from None
-                raise
             on_result(jobs[i], result)
     except KeyboardInterrupt:
         pending = {f: i for f, i in futures.items() if f not in handled}

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import os
 import signal
+import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -15,9 +16,11 @@ import pytest
 from xface_core.cli import main
 from xface_core.designspace import DesignSpace
 from xface_core.errors import XfaceValueError
+from xface_core.executors import WorkerLost, execute
 from xface_core.study import StudyProgress, read_study, run_study
 
 distributed = pytest.importorskip("distributed")
+dask = pytest.importorskip("dask")
 
 #: 24 designs: three faces, two H/D, two r_p, two frictions; a 7 x 7 pose grid keeps it fast.
 SPACE = DesignSpace(
@@ -113,3 +116,65 @@ def test_a_worker_that_dies_mid_sweep_has_its_designs_run_elsewhere(
     assert read_study(out, timing=False).equals(expected)
     client.wait_for_workers(2, timeout=60)  # the nanny started a new worker
     assert killed[0] not in client.run(os.getpid).values()
+
+
+def _a_result(job: int) -> dict[str, int]:
+    """A result that is not a triple (as a study's row is not)."""
+    return {"job": job, "a": 1, "b": 2, "c": 3}
+
+
+def test_a_result_reported_lost_after_its_fetch_is_still_handed_over(
+    client: Any, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # The scheduler's report that a result's worker died can reach the client just after
+    # the client fetched that result (CI saw it once, mid-sweep). distributed's
+    # ClientExecutor then read the status "lost" and unpacked the result as an error.
+    fetch = distributed.Future._result
+
+    async def fetch_then_lost(self: Any, raiseit: bool = True) -> Any:
+        result = await fetch(self, raiseit=raiseit)
+        self._state.lose()  # what the client does on the scheduler's "lost" report
+        return result
+
+    monkeypatch.setattr(distributed.Future, "_result", fetch_then_lost)
+    got: dict[int, dict[str, int]] = {}
+    execute(_a_result, [0, 1, 2], got.__setitem__, executor=client)
+    assert got == {j: _a_result(j) for j in range(3)}
+
+
+def _slow_after_the_first(job: int) -> int:
+    if job > 0:
+        time.sleep(0.5)
+    return job
+
+
+def test_an_interrupt_on_the_cluster_keeps_what_finished_and_cancels_the_rest(
+    client: Any,
+) -> None:
+    kept: list[int] = []
+
+    def on_result(job: int, result: int) -> None:
+        kept.append(result)
+        if len(kept) == 1:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        execute(_slow_after_the_first, list(range(40)), on_result, executor=client)
+    assert kept[0] == 0
+    assert len(set(kept)) == len(kept) < 40  # nothing twice; the queued rest cancelled
+
+
+def _kill_my_worker(job: int) -> int:
+    os._exit(1)
+
+
+def test_a_job_the_cluster_gives_up_on_is_worker_lost() -> None:
+    with (
+        dask.config.set({"distributed.scheduler.allowed-failures": 0}),
+        distributed.LocalCluster(
+            n_workers=1, threads_per_worker=1, host="127.0.0.1", dashboard_address="127.0.0.1:0"
+        ) as cluster,
+        distributed.Client(cluster) as own,
+        pytest.raises(WorkerLost, match="the cluster gave up on it"),
+    ):
+        execute(_kill_my_worker, [1, 2], lambda j, r: None, executor=own)
