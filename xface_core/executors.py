@@ -46,6 +46,10 @@ class ClientLike(Protocol):
     """What a ``dask.distributed.Client`` offers that we use (``get_executor`` only tells a
     client from other objects; its futures come from ``submit``)."""
 
+    #: The client's event loop (``distributed.as_completed`` needs it: a client made with
+    #: ``set_as_default=False``, as ``--scheduler``'s is, is not found otherwise).
+    loop: Any
+
     def submit(self, fn: Callable[..., Any], *args: Any, **kwargs: Any) -> Any: ...
 
     def get_executor(self, **kwargs: Any) -> Executor: ...
@@ -168,7 +172,7 @@ def _execute_on_client(
     futures = {client.submit(fn, job, pure=False): i for i, job in enumerate(jobs)}
     handled: set[Any] = set()
     try:
-        for fut in as_completed(list(futures)):  # type: ignore[no-untyped-call]
+        for fut in as_completed(list(futures), loop=client.loop):  # type: ignore[no-untyped-call]
             handled.add(fut)
             i = futures[fut]
             # The client's result(): it fetches again, after the task runs again, when the

@@ -48,7 +48,8 @@ def client(local_table: Any) -> Iterator[Any]:
         # The scheduler's HTTP server starts anyway; on 8787 two runs at once collide.
         dashboard_address="127.0.0.1:0",
     )
-    c = distributed.Client(cluster)
+    # Not the default client: nothing may depend on one (--scheduler's client is not).
+    c = distributed.Client(cluster, set_as_default=False)
     try:
         yield c
     finally:
@@ -174,7 +175,7 @@ def test_a_job_the_cluster_gives_up_on_is_worker_lost() -> None:
         distributed.LocalCluster(
             n_workers=1, threads_per_worker=1, host="127.0.0.1", dashboard_address="127.0.0.1:0"
         ) as cluster,
-        distributed.Client(cluster) as own,
+        distributed.Client(cluster, set_as_default=False) as own,
         pytest.raises(WorkerLost, match="the cluster gave up on it"),
     ):
         execute(_kill_my_worker, [1, 2], lambda j, r: None, executor=own)
