@@ -52,6 +52,8 @@ class ClientLike(Protocol):
 
     def submit(self, fn: Callable[..., Any], *args: Any, **kwargs: Any) -> Any: ...
 
+    def cancel(self, futures: list[Any], **kwargs: Any) -> Any: ...
+
     def get_executor(self, **kwargs: Any) -> Executor: ...
 
 
@@ -179,11 +181,11 @@ def _execute_on_client(
             # result's worker dies before the fetch.
             on_result(jobs[i], _result(fut, jobs[i]))
     except KeyboardInterrupt:
-        for fut, i in futures.items():
-            if fut not in handled and fut.status == "finished":
-                on_result(jobs[i], fut.result())
-            elif fut not in handled:
-                fut.cancel()
+        pending = [f for f in futures if f not in handled]
+        finished = [f for f in pending if f.status == "finished"]
+        client.cancel([f for f in pending if f.status != "finished"])  # one call for them all
+        for fut in finished:
+            on_result(jobs[futures[fut]], fut.result())
         raise
 
 
