@@ -9,8 +9,8 @@ executor are accepted:
   that had not finished are submitted again, each at most ``retries`` more times.
 - any :class:`concurrent.futures.Executor` (threads, processes, ``mpi4py``'s, ...): used as
   given, never shut down here.
-- a ``dask.distributed.Client`` (anything with ``submit`` and ``get_executor``): its own
-  futures, waited on with ``distributed.as_completed``. Dask itself runs the tasks of a dead
+- a ``dask.distributed.Client`` (anything else with ``submit``, ``cancel`` and ``loop``): its
+  own futures, waited on with ``distributed.as_completed``. Dask itself runs the tasks of a dead
   worker again (up to its ``allowed-failures``), so a ``KilledWorker`` reaching us is final.
   Not the client's ``concurrent.futures`` wrapper (``get_executor``): distributed 2026.8's
   ``ClientExecutor`` reads a future's status again after fetching its result, and when the
@@ -43,8 +43,7 @@ DEFAULT_RETRIES = 3
 
 
 class ClientLike(Protocol):
-    """What a ``dask.distributed.Client`` offers that we use (``get_executor`` only tells a
-    client from other objects; its futures come from ``submit``)."""
+    """What a ``dask.distributed.Client`` offers that we use."""
 
     #: The client's event loop (``distributed.as_completed`` needs it: a client made with
     #: ``set_as_default=False``, as ``--scheduler``'s is, is not found otherwise).
@@ -53,8 +52,6 @@ class ClientLike(Protocol):
     def submit(self, fn: Callable[..., Any], *args: Any, **kwargs: Any) -> Any: ...
 
     def cancel(self, futures: list[Any], **kwargs: Any) -> Any: ...
-
-    def get_executor(self, **kwargs: Any) -> Executor: ...
 
 
 class WorkerLost(XfaceError):
@@ -182,8 +179,8 @@ def _execute_on_client(
             on_result(jobs[i], _result(fut, jobs[i]))
     except KeyboardInterrupt:
         pending = [f for f in futures if f not in handled]
-        finished = [f for f in pending if f.status == "finished"]
-        client.cancel([f for f in pending if f.status != "finished"])  # one call for them all
+        finished = {f for f in pending if f.status == "finished"}  # read once: it can change
+        client.cancel([f for f in pending if f not in finished])  # one call for them all
         for fut in finished:
             on_result(jobs[futures[fut]], fut.result())
         raise
