@@ -4,6 +4,7 @@ against the Prediction or map they came from, and checked by the `rerun rrd` CLI
 from __future__ import annotations
 
 import math
+import os
 import signal
 import socket
 import subprocess
@@ -322,6 +323,20 @@ def test_rrd_verify_accepts_a_prediction(tmp_path: Path, seated: Prediction) -> 
     assert result.returncode == 0, result.stderr
 
 
+def _interrupt(proc: subprocess.Popen[Any], timeout_s: float) -> None:
+    """Ctrl-C to ``proc`` (started in a session of its own) and wait for it. One that does
+    not end in time is killed with its children, so a failed test leaves no server behind:
+    a suite run from a background job of a shell without job control inherits SIGINT
+    ignored, and its children then never see the interrupt."""
+    proc.send_signal(signal.SIGINT)
+    try:
+        proc.wait(timeout=timeout_s)
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)
+        proc.wait()
+        raise
+
+
 _RECORD_AND_WAIT = """
 import sys, time
 from xface_core.geometry import v_face
@@ -342,13 +357,13 @@ def test_file_is_finished_after_sigint(tmp_path: Path) -> None:
         stdout=subprocess.PIPE,
         text=True,
         cwd=Path(__file__).resolve().parents[3],
+        start_new_session=True,
     )
     try:
         assert proc.stdout is not None
         assert proc.stdout.readline().strip() == "recorded"
     finally:
-        proc.send_signal(signal.SIGINT)
-        proc.wait(timeout=60)
+        _interrupt(proc, 60.0)
     result = rerun_cli("rrd", "verify", path)
     assert result.returncode == 0, result.stderr
 
@@ -435,6 +450,7 @@ def test_url_streams_to_a_live_viewer(tmp_path: Path, seated: Prediction) -> Non
         [str(RERUN_CLI), "--bind", "127.0.0.1", "--port", str(port), "--save", str(saved)],
         stdout=subprocess.DEVNULL,
         stderr=subprocess.DEVNULL,
+        start_new_session=True,
     )
     try:
         _wait_for_port(port, proc)
@@ -443,8 +459,7 @@ def test_url_streams_to_a_live_viewer(tmp_path: Path, seated: Prediction) -> Non
         rec.flush(timeout_sec=30.0)
         rec.disconnect()
     finally:
-        proc.send_signal(signal.SIGINT)
-        proc.wait(timeout=30)
+        _interrupt(proc, 30.0)
     # The CLI's own file has no footer when interrupted (rerun warns), so read it as a stream.
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
