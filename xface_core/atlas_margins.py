@@ -38,6 +38,7 @@ from .margins import (
     LATERAL_STEP,
     HalfAxisSearch,
     flip_distances,
+    moved_along,
     outcome_margins,
     reach_margins,
     search_physics,
@@ -140,15 +141,6 @@ def _half_axes(
     return axes
 
 
-def _poses(
-    x_d: float, theta0: float, axis: int, direction: float, offsets: npt.ArrayLike
-) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
-    off = np.asarray(offsets, dtype=np.float64)
-    if axis == 0:
-        return x_d + direction * off, np.full(off.shape, theta0)
-    return np.full(off.shape, x_d), theta0 + direction * off
-
-
 def _exact(
     atlas: AcceptanceAtlas,
     x_d: float,
@@ -158,7 +150,7 @@ def _exact(
     sims: _Sims,
 ) -> npt.NDArray[np.int8]:
     """Exact outcomes at offsets along one half-axis (one batch)."""
-    xs, ts = _poses(x_d, theta0, h.axis, h.direction, offsets)
+    xs, ts = moved_along(x_d, theta0, h.axis, h.direction, offsets)
     return _outcomes(atlas, xs, ts, sims.physics, None)
 
 
@@ -368,7 +360,7 @@ def _probe(
     spans = list(zip([0, *ends[:-1]], ends, strict=True))
     xs, ts = np.empty(ends[-1]), np.empty(ends[-1])
     for (h, off), (start, end) in zip(tries, spans, strict=True):
-        xs[start:end], ts[start:end] = _poses(x_d, theta0, h.axis, h.direction, off)
+        xs[start:end], ts[start:end] = moved_along(x_d, theta0, h.axis, h.direction, off)
     codes = _outcomes_split(atlas, xs, ts, sims)
     return [codes[start:end] for start, end in spans]
 
@@ -460,7 +452,7 @@ def _bisect_all(
         xs = np.empty(len(active))
         ts = np.empty(len(active))
         for n, h in enumerate(active):
-            x, t = _poses(x_d, theta0, h.axis, h.direction, [0.5 * (h.lo + h.hi)])
+            x, t = moved_along(x_d, theta0, h.axis, h.direction, [0.5 * (h.lo + h.hi)])
             xs[n], ts[n] = x[0], t[0]
         codes = _outcomes(atlas, xs, ts, sims.physics, None)
         for h, code in zip(active, codes, strict=True):

@@ -48,6 +48,23 @@ class HalfAxisSearch(NamedTuple):
     first: float = 0.0
 
 
+def moved_along(
+    x0: float,
+    theta0: float,
+    axis: int,
+    direction: float,
+    offsets: npt.ArrayLike,
+    scale: float = 1.0,
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """The pose (x0, theta0) moved by each of ``offsets`` along a half-axis (axis 0: x0, the
+    offsets in units of D times ``scale``, the length of D in x0's unit; 1: theta0, rad):
+    arrays of x0 and theta0."""
+    off = np.asarray(offsets, dtype=np.float64)
+    if axis == 0:
+        return x0 + direction * off * scale, np.full(off.shape, theta0)
+    return np.full(off.shape, x0), theta0 + direction * off
+
+
 class _Search:
     """The state of one :class:`HalfAxisSearch`: scanning batch by batch until a node's
     outcome differs, then bisecting the step before it; ``result`` once done."""
@@ -70,10 +87,7 @@ class _Search:
         self, x0: float, theta0: float, probes: npt.NDArray[np.float64]
     ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
         """The query moved by ``probes`` along this half-axis: (x0 (length), theta0)."""
-        moved = self.half.direction * probes
-        if self.half.axis == 0:
-            return x0 + moved * self.scale, np.full(probes.shape, theta0)
-        return np.full(probes.shape, x0), theta0 + moved
+        return moved_along(x0, theta0, self.half.axis, self.half.direction, probes, self.scale)
 
     def take(self, probes: npt.NDArray[np.float64], codes: npt.NDArray[np.void], q: int) -> None:
         """Advance by the outcomes ``codes`` of ``probes``."""
