@@ -20,6 +20,7 @@ from __future__ import annotations
 import math
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from typing import ClassVar
 
@@ -521,6 +522,16 @@ class StatsCounts:
 
     warming_up: bool = True
     """True until the simulator is loaded (the first simulation compiles or loads it)."""
+    engine: str = ""
+    """Where the warm-up gets the compiled simulator: ``precompiled`` (shipped with the
+    install), ``cached`` (numba's cache) or ``compiles`` (compiled now); "" before it begins."""
+    warm_up_done: int = 0
+    """Compiled entry points the warm-up has loaded (or compiled) so far."""
+    warm_up_total: int = 0
+    """Compiled entry points the warm-up loads; 0 until the engine has said how many."""
+    warm_up_s: float = 0.0
+    """Seconds since the warm-up began (monotonic clock, not the node's, which may be sim time
+    and stand still); once it is over, how long it took."""
     predicted_total: int = 0
     input_errors_total: int = 0
     dds_lost_reported_total: int = 0
@@ -563,11 +574,14 @@ class PredictorStats:
     #: Bound on the samples kept per diagnostics window (memory stays flat at any rate).
     MAX_SAMPLES = 5000
 
-    def __init__(self, *, start_ns: int) -> None:
+    def __init__(self, *, start_ns: int, monotonic_s: Callable[[], float] = time.monotonic) -> None:
+        """``monotonic_s``: the clock of the warm-up's duration (a test passes its own)."""
         self._lock = threading.Lock()
         self._window = StatsWindow()
         self._window_start_ns = start_ns
         self._counts = StatsCounts()
+        self._monotonic_s = monotonic_s
+        self._warm_up_started_s: float | None = None
 
     def count_received(self, stamp_ns: int) -> None:
         """A pose arrived (``stamp_ns``: its header stamp)."""
@@ -608,9 +622,29 @@ class PredictorStats:
         with self._lock:
             self._counts.dds_lost_reported_total = int(total)
 
+    def start_warm_up(self, engine: str) -> None:
+        """The warm-up begins; ``engine``: where the compiled simulator comes from
+        (:attr:`StatsCounts.engine`)."""
+        with self._lock:
+            self._warm_up_started_s = self._monotonic_s()
+            self._counts.engine = engine
+
+    def set_warm_up_progress(self, done: int, total: int) -> None:
+        """``done`` of the ``total`` compiled entry points are loaded (or compiled)."""
+        with self._lock:
+            self._counts.warm_up_done = int(done)
+            self._counts.warm_up_total = int(total)
+
     def set_warming_up(self, warming_up: bool) -> None:
         with self._lock:
+            if self._counts.warming_up and not warming_up:  # over: keep how long it took
+                self._counts.warm_up_s = self._warm_up_elapsed_s()
             self._counts.warming_up = warming_up
+
+    def _warm_up_elapsed_s(self) -> float:
+        """Seconds since :meth:`start_warm_up` (0 before it); call with the lock held."""
+        started = self._warm_up_started_s
+        return 0.0 if started is None else max(self._monotonic_s() - started, 0.0)
 
     @property
     def warming_up(self) -> bool:
@@ -627,6 +661,8 @@ class PredictorStats:
             window, self._window = self._window, StatsWindow()
             start_ns, self._window_start_ns = self._window_start_ns, now_ns
             counts = replace(self._counts)
+            if counts.warming_up:
+                counts.warm_up_s = self._warm_up_elapsed_s()
         return StatsSnapshot(
             now_ns=now_ns,
             window=window,

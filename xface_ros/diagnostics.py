@@ -2,14 +2,18 @@
 
 One ``DiagnosticStatus`` named ``<node>: predictor`` per period. Level and message:
 
-* ``WARN`` "warming up ..." until the worker has loaded the simulator;
+* ``WARN`` "warming up: ..." until the worker has loaded the simulator, with its progress
+  (``warming up: compiling the simulator (3/7, 41 s)``, ``warming up: loading the simulator
+  (3/7)``; :func:`warming_up_message`): a client waits for a message that does not start with
+  :data:`WARMING_UP_PREFIX`;
 * ``WARN`` when no pose arrived during the period;
 * ``ERROR`` when the last pose was rejected;
 * ``OK`` otherwise.
 
 The values (keys listed in docs/ros.md) are the snapshot's counters and rates, the window's
-latency and compute-time statistics (ms) and the design. Needs the message packages, not a
-running ROS context: tested without DDS (tests/ros/test_diagnostics.py).
+latency and compute-time statistics (ms), the design, the atlas's state and the warm-up's
+progress (``engine``, ``warm_up_done``, ``warm_up_total``, ``warm_up_s``). Needs the message
+packages, not a running ROS context: tested without DDS (tests/ros/test_diagnostics.py).
 """
 
 from __future__ import annotations
@@ -23,18 +27,23 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 
 from xface_ros.config import NodeConfig
 from xface_ros.conversions import key_value
-from xface_ros.decision import StatsSnapshot
+from xface_ros.decision import StatsCounts, StatsSnapshot
 
 __all__ = [
     "WARMING_UP_MESSAGE",
+    "WARMING_UP_PREFIX",
     "diagnostic_array",
+    "is_warming_up",
     "predictor_level",
     "predictor_status",
     "predictor_values",
+    "warming_up_message",
 ]
 
-#: The message of the status while the simulator loads (a fresh checkout compiles it).
-WARMING_UP_MESSAGE = "warming up: loading the simulator"
+#: How every message of the status begins while the node warms up (what a client tests).
+WARMING_UP_PREFIX = "warming up"
+#: The message of the status while the simulator loads, before its progress is known.
+WARMING_UP_MESSAGE = f"{WARMING_UP_PREFIX}: loading the simulator"
 
 
 def _median(values: Sequence[float]) -> float:
@@ -75,11 +84,39 @@ def predictor_values(
     }
 
 
+def is_warming_up(message: str) -> bool:
+    """Whether a predictor status's ``message`` says the node is still warming up."""
+    return message.startswith(WARMING_UP_PREFIX)
+
+
+def warming_up_message(counts: StatsCounts) -> str:
+    """The warming-up message with the warm-up's progress: entry points done of all, and the
+    seconds so far when it compiles (minutes on a fresh install: the number shows it moving).
+
+    >>> warming_up_message(
+    ...     StatsCounts(engine="compiles", warm_up_done=3, warm_up_total=7, warm_up_s=41.2)
+    ... )
+    'warming up: compiling the simulator (3/7, 41 s)'
+    >>> warming_up_message(StatsCounts(engine="cached", warm_up_done=3, warm_up_total=7))
+    'warming up: loading the simulator (3/7)'
+    >>> warming_up_message(StatsCounts()) == WARMING_UP_MESSAGE  # before the progress is known
+    True
+    """
+    compiles = counts.engine == "compiles"
+    progress = [f"{counts.warm_up_done}/{counts.warm_up_total}"] if counts.warm_up_total else []
+    if compiles:
+        progress.append(f"{counts.warm_up_s:.0f} s")
+    if not progress:
+        return WARMING_UP_MESSAGE
+    verb = "compiling" if compiles else "loading"
+    return f"{WARMING_UP_PREFIX}: {verb} the simulator ({', '.join(progress)})"
+
+
 def predictor_level(snapshot: StatsSnapshot) -> tuple[bytes, str]:
     """The status level (``DiagnosticStatus.OK`` etc.) and its message."""
     counts = snapshot.counts
     if counts.warming_up:
-        return DiagnosticStatus.WARN, WARMING_UP_MESSAGE
+        return DiagnosticStatus.WARN, warming_up_message(counts)
     if snapshot.window.received == 0:
         return DiagnosticStatus.WARN, "no poses received in the last period"
     if counts.last_input_error:
@@ -97,10 +134,16 @@ def predictor_status(
 ) -> DiagnosticStatus:
     """The node's ``<node_name>: predictor`` status (``hardware_id`` = ``base_frame``);
     ``atlas`` is the acceptance atlas's state (off, building, ready, failed: until it is ready
-    margins are searched exactly)."""
+    margins are searched exactly). The warm-up's keys come last: added after the others, so
+    readers of the earlier keys see them where they were."""
     level, message = predictor_level(snapshot)
     values = predictor_values(snapshot, config, recording_path=recording_path)
     values["atlas"] = atlas
+    counts = snapshot.counts
+    values["engine"] = counts.engine
+    values["warm_up_done"] = counts.warm_up_done
+    values["warm_up_total"] = counts.warm_up_total
+    values["warm_up_s"] = counts.warm_up_s
     return DiagnosticStatus(
         level=level,
         name=f"{node_name}: predictor",

@@ -13,11 +13,12 @@ subscription, the ``predict`` service and the diagnostics timer, and hands work 
   the warm-up it waits for the simulator to load, then answers);
 * the timer formats the worker's stats with :mod:`xface_ros.diagnostics`.
 
-The plain node's constructor does not simulate: every interface exists before the (possibly
-long) warm-up. With ``--lifecycle`` the managed node warms up in ``configure`` and opens its
-inputs in ``activate`` (docs/ros.md, "Lifecycle mode"). ``main()`` owns init, spin and
-shutdown. The interface (topics, QoS, service, parameters) is
-documented in docs/ros.md.
+Neither node kind waits for the warm-up, which takes minutes where the simulator compiles: the
+plain node's constructor makes every interface and the worker thread warms up behind them;
+with ``--lifecycle``, ``configure`` starts that warm-up and returns, ``activate`` opens the
+inputs (docs/ros.md, "Lifecycle mode"); ``/diagnostics`` says "warming up" with its progress
+until it is over. ``main()`` owns init, spin and shutdown.
+The interface (topics, QoS, service, parameters) is documented in docs/ros.md.
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ import argparse
 import sys
 import threading
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from typing import Any
 
 import rclpy
@@ -59,7 +60,6 @@ from rclpy.utilities import remove_ros_args
 from std_msgs.msg import Bool, Header
 from visualization_msgs.msg import MarkerArray
 
-from xface_ros import worker as worker_module
 from xface_ros.atlas_keeper import AtlasKeeper
 from xface_ros.config import CUSTOM_FACE, params_file_applied, params_file_paths
 from xface_ros.conversions import (
@@ -170,8 +170,8 @@ class _Predictor(Node):
         self._publishers_made.append(publisher)
         return publisher
 
-    def _make_outputs(self, *, warm_up: Callable[[NodeConfig], None] | None = None) -> None:
-        """Publishers, the recording and the worker (not started); ``warm_up`` as the worker's."""
+    def _make_outputs(self) -> None:
+        """Publishers, the recording and the worker (not started: its thread warms up first)."""
         self._accepted_pub = self._publisher(Bool, "prediction/accepted", RESULT_QOS)
         self._status_pub = self._publisher(DiagnosticStatus, "prediction/status", RESULT_QOS)
         self._path_pub = self._publisher(Path, "prediction/path", BULK_QOS)
@@ -187,7 +187,6 @@ class _Predictor(Node):
             logger=self.get_logger(),
             recorder=self._recorder,
             shutting_down=lambda: not self.context.ok(),
-            warm_up=warm_up,
             atlas=AtlasKeeper(self.get_logger()),
         )
 
@@ -498,7 +497,10 @@ class XfaceLifecyclePredictor(LifecycleNodeMixin, _Predictor):
 
     * constructed (unconfigured): parameters only;
     * ``configure``: publishers (lifecycle publishers, silent until active), the recording, and
-      the warm-up, in the transition itself (it returns once the simulator is loaded);
+      the worker, whose warm-up it starts and does not wait for: loading the simulator takes
+      minutes where it compiles, and a lifecycle manager waits on each transition before it
+      brings up the next node; until it is over ``/diagnostics`` (once active) says "warming
+      up" and the services answer only once the simulator is loaded;
     * ``activate``: the pose subscription, both services and the diagnostics timer;
     * ``deactivate``: those released again (no answers, no predictions);
     * ``cleanup`` / ``shutdown``: the worker stopped, the recording finished, all released.
@@ -519,16 +521,9 @@ class XfaceLifecyclePredictor(LifecycleNodeMixin, _Predictor):
         return bool(self.destroy_lifecycle_publisher(publisher))
 
     def on_configure(self, state: LifecycleState) -> TransitionCallbackReturn:
-        t0 = time.perf_counter()
-        try:
-            # Looked up at call time, so a test can hold the warm-up back as for the plain node.
-            worker_module.warm_up_simulator(self.config)
-        except Exception as exc:
-            self.get_logger().error(f"configure failed: the warm-up prediction raised {exc!r}")
-            return TransitionCallbackReturn.FAILURE
-        self._make_outputs(warm_up=lambda _config: None)  # warmed up already
-        self._running_worker.start()
-        self.get_logger().info(f"configured: simulator loaded in {time.perf_counter() - t0:.1f} s")
+        self._make_outputs()
+        self._running_worker.start()  # warms up on its own thread, then predicts
+        self.get_logger().info("configured; the simulator warms up in the background")
         return super().on_configure(state)
 
     def on_activate(self, state: LifecycleState) -> TransitionCallbackReturn:

@@ -2,9 +2,11 @@
 
 The subscription hands each pose to :meth:`PredictionWorker.submit`, which only stores it in a
 one-slot mailbox (:class:`~xface_ros.latest.LatestSlot`: the newest pose wins, an overwritten
-one is counted as dropped). The worker thread first warms the simulator up (the first
-simulation loads, on a fresh checkout compiles, the compiled kernels: up to tens of seconds),
-then takes the newest pose whenever it is free, asks :mod:`xface_ros.decision` for the verdict
+one is counted as dropped). The worker thread first warms the simulator up: it loads every
+compiled entry point (:func:`xface_core.runner.warm_up_engine`: seconds from the install's
+precompiled engine or numba's cache, minutes of CPU where it compiles), counting its progress
+in the stats for ``/diagnostics``, then predicts once through each entry a pose can take. Then
+it takes the newest pose whenever it is free, asks :mod:`xface_ros.decision` for the verdict
 and hands it to the node's ``publish`` callback. It owns the :class:`PredictorStats`.
 
 Imports no rclpy: the node passes in its clock, its logger and its publishing as callables,
@@ -21,7 +23,7 @@ from typing import Any, Protocol
 from xface_core.atlas import AcceptanceAtlas
 from xface_core.predict import predict
 from xface_core.result import Prediction
-from xface_core.runner import engine_is_cached
+from xface_core.runner import engine_state, warm_up_engine
 from xface_ros.atlas_keeper import AtlasKeeper
 from xface_ros.config import NodeConfig
 from xface_ros.decision import (
@@ -49,6 +51,15 @@ COMPILING_LOG = (
 
 #: How long the worker waits for a pose before it checks whether to stop (s).
 _POLL_S = 0.2
+
+#: Loads (or compiles) every compiled entry point, calling ``progress(done, total)`` after each.
+EngineLoader = Callable[[Callable[[int, int], None] | None], None]
+
+
+class _WarmUpStopped(Exception):
+    """Raised from the warm-up's progress callback once the worker is told to stop: a
+    warm-up that compiles takes minutes, and a node shut down meanwhile should not wait for
+    all of it (it stops after the entry point in progress)."""
 
 
 class Logger(Protocol):
@@ -99,7 +110,10 @@ class PredictionWorker:
     shutting_down : callable, optional
         True once the node is going away: a failed publish then ends the worker quietly.
     warm_up : callable, optional
-        Loads the simulator; default :func:`warm_up_simulator`.
+        The warm-up predictions, after the engine is loaded; default :func:`warm_up_simulator`.
+    load_engine : callable, optional
+        Loads (or compiles) every compiled entry point with a progress callback; default
+        :func:`xface_core.runner.warm_up_engine`.
     atlas : AtlasKeeper, optional
         The acceptance atlas of the current design (built in the background after the
         warm-up); its margins are used once it is ready. None: margins always exact.
@@ -116,6 +130,7 @@ class PredictionWorker:
         recorder: Recorder | None = None,
         shutting_down: Callable[[], bool] = lambda: False,
         warm_up: Callable[[NodeConfig], None] | None = None,
+        load_engine: EngineLoader | None = None,
         atlas: AtlasKeeper | None = None,
     ) -> None:
         self._config = config
@@ -127,6 +142,7 @@ class PredictionWorker:
         self._recorder = recorder
         self._shutting_down = shutting_down
         self._warm_up_simulator = warm_up or warm_up_simulator
+        self._load_engine = load_engine or warm_up_engine
         self.slot: LatestSlot[PoseInput] = LatestSlot()
         self.stats = PredictorStats(start_ns=now_ns())
         self._stop = threading.Event()
@@ -204,11 +220,20 @@ class PredictionWorker:
                 self._report_failure(item.message, exc)
 
     def _warm_up(self) -> None:
+        """Load the engine (counting its progress for ``/diagnostics``), predict once through
+        each entry, then start the atlas; a failure is logged and ends the warm-up all the
+        same (each pose reports it again)."""
         t0 = time.perf_counter()
-        if not engine_is_cached():  # a fresh install: say why the first poses wait
+        state = engine_state()
+        self._logger.info(f"simulator: {state.describe()}")
+        self.stats.start_warm_up(state.source)
+        if not state.ready:  # say why the first poses wait
             self._logger.info(COMPILING_LOG)
         try:
+            self._load_engine(self._engine_progress(compiles=not state.ready, t0=t0))
             self._warm_up_simulator(self._config())
+        except _WarmUpStopped:
+            return  # the node is going away: no atlas to build
         except Exception as exc:  # reported again, per pose, by the predictions
             self._logger.warning(f"warm-up prediction failed: {exc!r}")
         else:
@@ -219,6 +244,21 @@ class PredictionWorker:
             self.stats.set_warming_up(False)
         if self.atlas is not None:
             self.atlas.get(self._config())  # start building it (on a thread of its own)
+
+    def _engine_progress(self, *, compiles: bool, t0: float) -> Callable[[int, int], None]:
+        """The engine's progress callback: counts for ``/diagnostics``, a log line per entry
+        when it compiles (minutes, so the log shows it moving), and the way out of a warm-up
+        the node no longer wants (:class:`_WarmUpStopped`)."""
+
+        def progress(done: int, total: int) -> None:
+            self.stats.set_warm_up_progress(done, total)
+            if compiles:
+                elapsed_s = time.perf_counter() - t0
+                self._logger.info(f"compiling the simulator: {done}/{total} ({elapsed_s:.0f} s)")
+            if self._stop.is_set():
+                raise _WarmUpStopped
+
+        return progress
 
     def process(self, item: Received[PoseInput]) -> Verdict:
         """Decide one streamed pose, publish, count and record it; the verdict."""

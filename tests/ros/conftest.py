@@ -45,7 +45,7 @@ from std_msgs.msg import Bool
 from visualization_msgs.msg import MarkerArray
 
 from xface_core.frames import yaw_to_quaternion
-from xface_ros.diagnostics import WARMING_UP_MESSAGE
+from xface_ros.diagnostics import is_warming_up
 
 ROOT = Path(__file__).resolve().parents[2]
 DEFAULT_PARAMS_FILE = ROOT / "config" / "xface.yaml"
@@ -54,8 +54,9 @@ NODE_NAME = "xface_predictor"
 NODE_FQN = f"/{NODE_NAME}"
 BASE_FRAME = "xface_base"
 
-#: Generous: a cold start loads rclpy and Fast DDS, and on a fresh checkout the node compiles
-#: the simulator (numba) before it offers its service, on a shared machine.
+#: Generous: a cold start loads rclpy and Fast DDS, and where the simulator is not precompiled
+#: or cached the node compiles it (numba, minutes of CPU) before it is warmed up, on a shared
+#: machine.
 STARTUP_TIMEOUT_S = 300.0
 REPLY_TIMEOUT_S = 60.0
 #: A query to the node (plan, status) without a reply after this long is sent again.
@@ -268,7 +269,7 @@ class RosClient:
     def node_warmed_up(self) -> bool:
         """A predictor status on /diagnostics that no longer says "warming up"."""
         return any(
-            status.name == f"{self.node_fqn}: predictor" and status.message != WARMING_UP_MESSAGE
+            status.name == f"{self.node_fqn}: predictor" and not is_warming_up(status.message)
             for array in self.diagnostics.snapshot()
             for status in array.status
         )

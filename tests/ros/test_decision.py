@@ -386,6 +386,26 @@ def test_stats_count_predictions_errors_and_windows(config: NodeConfig) -> None:
     assert later.window_s == pytest.approx(1.0)
 
 
+def test_stats_time_the_warm_up_while_it_runs_and_keep_its_length_after() -> None:
+    clock = [100.0]
+    stats = PredictorStats(start_ns=0, monotonic_s=lambda: clock[0])
+    stats.start_warm_up("compiles")
+    stats.set_warm_up_progress(3, 7)
+    clock[0] = 141.5
+
+    def counts() -> StatsCounts:
+        return stats.take_snapshot(10, received_total=0, dropped_total=0).counts
+
+    running = counts()
+    assert (running.engine, running.warm_up_done, running.warm_up_total) == ("compiles", 3, 7)
+    assert running.warm_up_s == 41.5
+    stats.set_warm_up_progress(7, 7)
+    clock[0] = 150.0
+    stats.set_warming_up(False)
+    clock[0] = 500.0  # the warm-up is over: its length stays
+    assert counts().warm_up_s == 50.0
+
+
 def test_stats_before_any_pose() -> None:
     snap = PredictorStats(start_ns=0).take_snapshot(10, received_total=0, dropped_total=0)
     assert math.isnan(snap.pose_age_s)

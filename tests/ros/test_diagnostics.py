@@ -21,6 +21,7 @@ from xface_ros.decision import (
 from xface_ros.diagnostics import (
     WARMING_UP_MESSAGE,
     diagnostic_array,
+    is_warming_up,
     predictor_level,
     predictor_status,
 )
@@ -36,7 +37,7 @@ DOCUMENTED_KEYS = [
     "service_calls_total", "recording_errors_total", "last_outcome", "last_accepted",
     "last_input_error", "last_latency_ms", "latency_ms_median", "latency_ms_max",
     "compute_ms_median", "face", "width_m", "h_over_d", "r_p", "damping_ratio", "recording",
-    "atlas",
+    "atlas", "engine", "warm_up_done", "warm_up_total", "warm_up_s",
 ]  # fmt: skip
 
 
@@ -68,6 +69,41 @@ def test_warming_up_is_a_warning_until_the_simulator_is_loaded(config: NodeConfi
     stats.set_warming_up(False)
     stats.count_received(NOW_NS)
     assert predictor_level(snapshot(stats))[0] == DiagnosticStatus.OK
+
+
+@pytest.mark.parametrize(
+    ("engine", "message"),
+    [
+        ("compiles", "warming up: compiling the simulator (3/7, 41 s)"),
+        ("cached", "warming up: loading the simulator (3/7)"),
+        ("precompiled", "warming up: loading the simulator (3/7)"),
+    ],
+)
+def test_warming_up_says_how_far_the_simulator_has_loaded(
+    config: NodeConfig, engine: str, message: str
+) -> None:
+    clock = [0.0]
+    stats = PredictorStats(start_ns=0, monotonic_s=lambda: clock[0])
+    stats.start_warm_up(engine)
+    stats.set_warm_up_progress(3, 7)
+    clock[0] = 41.2
+    status = predictor_status(snapshot(stats), config, node_name="n", recording_path="")
+    assert (status.level, status.message) == (DiagnosticStatus.WARN, message)
+    assert is_warming_up(status.message)
+    v = values(status)
+    assert (v["engine"], v["warm_up_done"], v["warm_up_total"]) == (engine, "3", "7")
+    assert float(v["warm_up_s"]) == pytest.approx(41.2)
+
+
+def test_a_warm_up_that_compiles_shows_its_seconds_before_the_first_entry_is_done(
+    config: NodeConfig,
+) -> None:
+    clock = [0.0]
+    stats = PredictorStats(start_ns=0, monotonic_s=lambda: clock[0])
+    stats.start_warm_up("compiles")
+    clock[0] = 12.0
+    status = predictor_status(snapshot(stats), config, node_name="n", recording_path="")
+    assert status.message == "warming up: compiling the simulator (12 s)"
 
 
 def test_no_pose_in_the_period_is_a_warning() -> None:

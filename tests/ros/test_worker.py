@@ -18,6 +18,7 @@ import pytest
 
 from xface_core.frames import yaw_to_quaternion
 from xface_core.result import Prediction
+from xface_core.runner import EngineState
 from xface_ros.atlas_keeper import AtlasKeeper
 from xface_ros.config import SPECS, NodeConfig, config_from_values
 from xface_ros.decision import PoseInput, Predicted, Rejected, Verdict
@@ -101,6 +102,7 @@ def make_worker(config: NodeConfig, publish: Published, **kwargs: Any) -> Predic
         "publish": publish,
         "logger": FakeLogger(),
         "warm_up": lambda _config: None,
+        "load_engine": lambda _progress: None,
     } | kwargs
     return PredictionWorker(**options)
 
@@ -162,23 +164,94 @@ def test_a_failed_warm_up_is_logged_and_ends_the_warm_up(
     assert any("warm-up prediction failed" in line for line in logger.lines["warning"])
 
 
-@pytest.mark.parametrize("cached", [False, True])
-def test_a_warm_up_that_compiles_says_so_first(
+COMPILES = EngineState(ready=False, source="compiles", compile_estimate_s=60.0)
+CACHED = EngineState(ready=True, source="cached", compile_estimate_s=0.0)
+
+
+@pytest.mark.parametrize("state", [COMPILES, CACHED], ids=["compiles", "cached"])
+def test_the_warm_up_logs_the_engine_state_and_says_so_first_when_it_compiles(
     config: NodeConfig,
     workers: list[PredictionWorker],
     monkeypatch: pytest.MonkeyPatch,
-    cached: bool,
+    state: EngineState,
 ) -> None:
     from xface_ros import worker as worker_module
 
-    monkeypatch.setattr(worker_module, "engine_is_cached", lambda: cached)
+    monkeypatch.setattr(worker_module, "engine_state", lambda: state)
     publish, logger = Published(), FakeLogger()
     worker = make_worker(config, publish, warm_up=lambda _config: None, logger=logger)
     workers.append(worker)
     worker.start()
     worker.submit(at_start(0.0, 0.0), receive_ns=NOW_NS)
     publish.wait_for(1)
-    assert (worker_module.COMPILING_LOG in logger.lines["info"]) is not cached
+    assert f"simulator: {state.describe()}" in logger.lines["info"]
+    assert (worker_module.COMPILING_LOG in logger.lines["info"]) is not state.ready
+    assert worker.take_stats(LATER_NS).counts.engine == state.source
+
+
+class HeldEngine:
+    """A stand-in for ``warm_up_engine``: reports ``held_at`` of ``total`` entry points done,
+    then waits for :attr:`release` before it reports the rest."""
+
+    def __init__(self, *, held_at: int = 3, total: int = 7) -> None:
+        self.held_at, self.total = held_at, total
+        self.entered, self.release = threading.Event(), threading.Event()
+        self.reported: list[int] = []
+
+    def __call__(self, progress: Any) -> None:
+        for done in range(1, self.total + 1):
+            if done == self.held_at + 1:
+                self.entered.set()
+                assert self.release.wait(timeout=WAIT_S)
+            self.reported.append(done)
+            progress(done, self.total)
+
+
+def test_the_warm_up_counts_the_engines_progress_for_the_diagnostics(
+    config: NodeConfig, workers: list[PredictionWorker], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from xface_ros import worker as worker_module
+
+    monkeypatch.setattr(worker_module, "engine_state", lambda: COMPILES)
+    engine = HeldEngine(held_at=3, total=7)
+    worker = make_worker(config, Published(), load_engine=engine)
+    workers.append(worker)
+    worker.start()
+    assert engine.entered.wait(timeout=WAIT_S)
+    counts = worker.take_stats(LATER_NS).counts
+    assert (counts.warming_up, counts.warm_up_done, counts.warm_up_total) == (True, 3, 7)
+    engine.release.set()
+    deadline = time.monotonic() + WAIT_S
+    while worker.warming_up and time.monotonic() < deadline:
+        time.sleep(0.01)
+    counts = worker.take_stats(LATER_NS).counts
+    assert (counts.warming_up, counts.warm_up_done, counts.warm_up_total) == (False, 7, 7)
+
+
+def test_a_worker_stopped_while_it_warms_up_stops_after_the_entry_in_progress(
+    config: NodeConfig,
+) -> None:
+    engine = HeldEngine(held_at=1, total=7)
+    predicted: list[NodeConfig] = []
+    atlas_builds: list[Any] = []
+
+    def build(*args: Any) -> Any:
+        atlas_builds.append(args)
+        raise RuntimeError("not wanted")
+
+    worker = make_worker(
+        config, Published(), load_engine=engine, warm_up=predicted.append,
+        atlas=AtlasKeeper(FakeLogger(), build=build),
+    )  # fmt: skip
+    worker.start()
+    assert engine.entered.wait(timeout=WAIT_S)
+    worker.stop(timeout_s=0.0)  # told to stop while the second entry point loads
+    engine.release.set()
+    worker.stop(timeout_s=WAIT_S)
+    assert not worker._thread.is_alive()
+    assert engine.reported == [1, 2]  # the entry in progress finished, no later one began
+    assert predicted == []
+    assert atlas_builds == []
 
 
 def test_a_prediction_is_published_with_its_config_and_counted(config: NodeConfig) -> None:
