@@ -17,13 +17,14 @@ Neither node kind waits for the warm-up, which takes minutes where the simulator
 plain node's constructor makes every interface and the worker thread warms up behind them;
 with ``--lifecycle``, ``configure`` starts that warm-up and returns, ``activate`` opens the
 inputs (docs/ros.md, "Lifecycle mode"); ``/diagnostics`` says "warming up" with its progress
-until it is over. ``main()`` owns init, spin and shutdown.
+until it is over. ``main()`` checks the parameter files, then owns init, spin and shutdown.
 The interface (topics, QoS, service, parameters) is documented in docs/ros.md.
 """
 
 from __future__ import annotations
 
 import argparse
+import re
 import sys
 import threading
 import time
@@ -31,6 +32,7 @@ from collections.abc import Sequence
 from typing import Any
 
 import rclpy
+import yaml
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from diagnostic_msgs.srv import SelfTest
 from geometry_msgs.msg import PoseStamped, PoseWithCovarianceStamped
@@ -544,8 +546,92 @@ class XfaceLifecyclePredictor(LifecycleNodeMixin, _Predictor):
         return super().on_shutdown(state)
 
 
+class CommandLineError(Exception):
+    """A command line the node cannot start with (a parameter file it cannot read, ROS
+    arguments rcl refuses): one line for the user, exit code 2."""
+
+
+#: How the layout of a ROS parameter file goes, for the error about one that does not.
+PARAMS_LAYOUT = "'<node name or /**>:', then 'ros__parameters:', then 'name: value' lines"
+
+
+def params_layout_problem(data: object, where: str = "") -> str | None:
+    """What in a parameter file's parsed YAML is off rcl's layout (None: nothing).
+
+    Node names (or ``/**``; namespaces nest as keys) down to ``ros__parameters``, a mapping
+    of names to values. rcl takes an empty file and a lone string without a word and then sets
+    nothing, which a user who passed a file never means, so both are refused here as well.
+
+    >>> params_layout_problem({"/**": {"ros__parameters": {"face": "V"}}}) is None
+    True
+    >>> params_layout_problem("face: V")
+    "expected '<node name or /**>:', then 'ros__parameters:', then 'name: value' lines"
+    >>> params_layout_problem({"xface_predictor": {"face": "V"}})
+    "'xface_predictor/face' is a value where a node name or 'ros__parameters:' belongs"
+    """
+    if not where and (not isinstance(data, dict) or not data):
+        return f"expected {PARAMS_LAYOUT}"
+    assert isinstance(data, dict)
+    for key, value in data.items():
+        if key == "ros__parameters":
+            if not where:
+                return "'ros__parameters:' needs a node name (or /**) above it"
+            if not isinstance(value, dict):
+                return f"'{where}ros__parameters' must map parameter names to values"
+        elif isinstance(value, dict):
+            problem = params_layout_problem(value, f"{where}{key}/")
+            if problem is not None:
+                return problem
+        else:
+            return f"'{where}{key}' is a value where a node name or 'ros__parameters:' belongs"
+    return None
+
+
+def params_file_problem(path: str) -> str | None:
+    """Why the node cannot start with the parameter file ``path``, in one line (None: none).
+
+    Checked before rclpy: rcl refuses a missing file or broken YAML with a traceback of its
+    own, and runs without a word on a file that sets nothing (a lone string, nothing at all).
+    """
+    try:
+        with open(path, encoding="utf-8") as stream:
+            data = yaml.safe_load(stream)
+    except OSError as exc:
+        return f"cannot read parameter file {path}: {exc.strerror or exc}"
+    except UnicodeDecodeError as exc:
+        return f"cannot read parameter file {path}: not UTF-8 text ({exc.reason})"
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = "" if mark is None else f" at line {mark.line + 1}, column {mark.column + 1}"
+        problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
+        return f"parameter file {path} is not valid YAML: {problem}{where}"
+    layout = params_layout_problem(data)
+    if layout is not None:
+        return f"parameter file {path} is not in ROS's layout: {layout}"
+    return None
+
+
+def _rcl_argument_error(exc: Exception) -> str:
+    """rcl's refusal of the ROS arguments without its source locations (``, at parse.c:806``)."""
+    text = " ".join(str(exc).split())
+    text = re.sub(r"(, at \S+:\d+)+$", "", text).removeprefix("Failed to parse ROS arguments: ")
+    params_file = re.fullmatch(
+        r"Couldn't parse params file: '--params-file (.*)'\. Error: (.*)", text
+    )
+    if params_file is not None:
+        return f"cannot use parameter file {params_file[1]}: {params_file[2]}"
+    return text
+
+
 def _parse_options(argv: Sequence[str]) -> argparse.Namespace:
-    """The node's own options (outside ``--ros-args``); argv[0] is the program."""
+    """The node's own options (outside ``--ros-args``); argv[0] is the program.
+
+    Raises :class:`CommandLineError` for a parameter file that cannot be used and for ROS
+    arguments rcl refuses; argparse exits 2 with usage on an unknown option."""
+    for path in params_file_paths(argv):
+        problem = params_file_problem(path)
+        if problem is not None:
+            raise CommandLineError(problem)
     parser = argparse.ArgumentParser(
         prog="xface-predictor", description="Run the xface_predictor ROS 2 node."
     )
@@ -554,17 +640,26 @@ def _parse_options(argv: Sequence[str]) -> argparse.Namespace:
         action="store_true",
         help="start as a managed (lifecycle) node, driven by <node>/change_state",
     )
-    return parser.parse_args(remove_ros_args(list(argv))[1:])
+    try:
+        own_args = remove_ros_args(list(argv))[1:]
+    except RuntimeError as exc:  # rcl's RCLInvalidROSArgsError: e.g. a mixed list, a bad -p
+        raise CommandLineError(_rcl_argument_error(exc)) from None
+    return parser.parse_args(own_args)
 
 
 def main(args: list[str] | None = None) -> int:
-    """Run the node until SIGINT or SIGTERM; 0 on a clean shutdown, 2 on a bad configuration.
+    """Run the node until SIGINT or SIGTERM; 0 on a clean shutdown, 2 on a bad configuration
+    or command line (one line on stderr, before rclpy starts).
 
     rclpy's own handlers catch both signals (``SignalHandlerOptions.ALL``): they shut the
     context down, ``spin`` returns, and the ``finally`` block finishes the recording.
     """
     argv = sys.argv if args is None else args
-    options = _parse_options(argv)  # exits 2 with usage on an unknown option
+    try:
+        options = _parse_options(argv)
+    except CommandLineError as exc:
+        print(f"{NODE_NAME}: error: {exc}", file=sys.stderr, flush=True)
+        return 2
     rclpy.init(args=argv, signal_handler_options=SignalHandlerOptions.ALL)
     node: _Predictor | None = None
     # One executor thread for the services, parameters and timer: rclpy's
