@@ -36,7 +36,7 @@ export ROS_DOMAIN_ID
 # With the ROS extra installed, a missing rclpy is an error rather than skipped ROS tests.
 export XFACE_REQUIRE_ROS ?= $(if $(findstring ros,$(EXTRAS)),1,0)
 
-.PHONY: help setup test lint format-check typecheck pytest demo bench format clean distclean
+.PHONY: help setup precompile test lint format-check typecheck pytest demo bench format clean distclean
 
 help: ## list the targets
 	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-13s %s\n", $$1, $$2}'
@@ -52,6 +52,11 @@ $(STAMP): pyproject.toml | $(BIN)/python
 	@touch $@
 
 setup: $(STAMP) ## create .venv/ and install xface with the extras in EXTRAS (default ros,test)
+
+# The install precompiles the engine (setup.py); after a change to xface_core/_engine the
+# build no longer matches and the engine compiles on first use until this runs again.
+precompile: $(STAMP) ## rebuild the precompiled engine in xface_core/_engine/_compiled
+	$(BIN)/python -m xface_core.precompile xface_core/_engine/_compiled
 
 # --- the test command: quality gates, then the tests ----------------------------------------
 test: lint format-check typecheck pytest ## all gates and all tests (what CI runs)
@@ -89,5 +94,5 @@ clean: ## remove caches and build output (keeps .venv/)
 	rm -rf build dist *.egg-info .pytest_cache .mypy_cache .ruff_cache .hypothesis .benchmarks
 	find . -path ./$(VENV) -prune -o -name __pycache__ -type d -prune -exec rm -rf {} +
 
-distclean: clean ## also remove .venv/
-	rm -rf $(VENV)
+distclean: clean ## also remove .venv/ and the precompiled engine
+	rm -rf $(VENV) xface_core/_engine/_compiled

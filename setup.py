@@ -1,9 +1,53 @@
-"""Only for colcon (``ament_python`` runs ``setup.py``): the metadata is in pyproject.toml.
+"""setuptools' hook: the wheel carries the precompiled engine; colcon's entry point too.
 
-pip builds from pyproject.toml and never needs this file; ``setup.cfg`` adds what colcon needs
-(the package name for setuptools 68, the ament index marker and package.xml).
+pip builds from pyproject.toml (this file only adds the build step below); ``setup.cfg`` adds
+what colcon needs (the package name for setuptools 68, the ament index marker and
+package.xml).
+
+``build_py`` copies the packages into the build folder, then compiles the engine there
+(``python -m xface_core.precompile``, a minute or two of CPU), so that a wheel, ``pip install
+.`` and ``pip install -e .`` answer their first query in seconds instead of compiling first.
+An editable install writes it into the source tree (``xface_core/_engine/_compiled``, ignored
+by git). A failed compile does not fail the install: the engine then compiles on first use,
+as ``xface --version`` says. ``XFACE_PRECOMPILE=0`` skips the step.
 """
 
-from setuptools import setup
+from __future__ import annotations
 
-setup()
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+from setuptools import setup
+from setuptools.command.build_py import build_py
+
+#: Where the precompiled engine goes inside the package tree.
+COMPILED = Path("xface_core", "_engine", "_compiled")
+
+
+class BuildPyWithEngine(build_py):  # type: ignore[misc]
+    """``build_py``, then the precompiled engine beside the copied sources."""
+
+    def run(self) -> None:
+        super().run()
+        if os.environ.get("XFACE_PRECOMPILE", "1") == "0":
+            print("xface: XFACE_PRECOMPILE=0: the engine compiles on first use", flush=True)
+            return
+        root = Path(__file__).resolve().parent if self.editable_mode else Path(self.build_lib)
+        print("xface: precompiling the engine (about 1-2 minutes of CPU)", flush=True)
+        env = dict(os.environ, PYTHONPATH=str(root))
+        done = subprocess.run(
+            [sys.executable, "-m", "xface_core.precompile", str(root / COMPILED)],
+            env=env,
+            check=False,
+        )
+        if done.returncode != 0:
+            print(
+                "xface: warning: could not precompile the engine; it compiles on first use",
+                file=sys.stderr,
+                flush=True,
+            )
+
+
+setup(cmdclass={"build_py": BuildPyWithEngine})

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 import os
+from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import TypeVar, cast
@@ -18,26 +19,30 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _engine
+from ._engine import precompiled
 from .codes import Outcome, Reason
-from .contact import pair_table
+from .contact import contact_geometry, pair_table
 from .errors import InputError, XfaceValueError, is_integer_in
-from .geometry import FaceDesign
+from .geometry import FaceDesign, x_face
 from .physics import Physics, SolverSettings
 from .result import AlignmentPath, Counters, Prediction
 
 __all__ = [
     "MAX_OFFSET",
     "BatchResult",
+    "EngineState",
     "check_pose",
     "engine_is_cached",
     "engine_model",
     "engine_options",
+    "engine_state",
     "predict_batch",
     "run_flat",
     "run_flat_lengths",
     "simulate_pose",
     "start_height",
     "start_heights",
+    "warm_up_engine",
 ]
 
 FloatArray = npt.NDArray[np.float64]
@@ -73,16 +78,85 @@ def thread_count(threads: object) -> int:
 
 
 def engine_is_cached() -> bool:
-    """False when numba's cache holds nothing of the compiled engine (a fresh install, or a
-    cache dropped because the engine's sources changed): the next simulation then compiles
-    the engine's stages first, 1-2 minutes on a 2-core machine (99 s for the first ``xface
-    predict`` of a fresh checkout); later entries reuse the cached stages. True as well where
-    numba's cache cannot be inspected: the answer only decides whether the command line says
-    that a first run compiles."""
-    cache_dir = getattr(getattr(_engine.simulate_many, "_cache", None), "_cache_path", None)
-    if not isinstance(cache_dir, str) or not os.path.isdir(cache_dir):
-        return cache_dir is None
-    return any(name.endswith(".nbi") for name in os.listdir(cache_dir))
+    """False when the next simulation compiles the engine first (:func:`engine_state`: no
+    precompiled engine serves this process and numba's cache lacks an entry point), about a
+    minute of CPU; True when it loads. Kept for callers that only ask yes or no."""
+    return engine_state().ready
+
+
+@dataclass(frozen=True)
+class EngineState:
+    """Whether the compiled engine is ready for this process, and from where."""
+
+    ready: bool
+    """True: the first simulation loads the compiled engine; nothing compiles."""
+    source: str
+    """``"precompiled"`` (built with the install), ``"cached"`` (numba's cache, written by a
+    compile on this machine) or ``"compiles"`` (the first simulation compiles it)."""
+    compile_estimate_s: float
+    """CPU seconds the first simulation spends compiling (0.0 when ready)."""
+    why_not_precompiled: str | None = None
+    """Why the install's precompiled engine does not serve this process (None when it does)."""
+
+    def describe(self) -> str:
+        """One line: ``ready (precompiled)``, ``ready (cached)`` or ``compiles on first use
+        (about 60 s)``."""
+        if self.ready:
+            return f"ready ({self.source})"
+        return f"compiles on first use (about {self.compile_estimate_s:.0f} s of CPU)"
+
+
+def engine_state() -> EngineState:
+    """Where the engine's entry points would come from on their first call in this process:
+    the precompiled engine of the install, numba's cache, or a compile (without simulating;
+    a few milliseconds). Compiled already in this process counts as ready."""
+    entries = _engine.ENTRY_POINTS
+    in_memory = [bool(entry.overloads) for entry in entries]
+    shipped = [precompiled.has_compiled(entry, shipped=True) for entry in entries]
+    cached = [precompiled.has_compiled(entry, shipped=False) for entry in entries]
+    manifest = precompiled.read_manifest()
+    why = precompiled.manifest_problem(manifest, precompiled.host_triple())
+    if all(m or s for m, s in zip(in_memory, shipped, strict=True)):
+        return EngineState(True, "precompiled", 0.0, why)
+    if all(m or s or c for m, s, c in zip(in_memory, shipped, cached, strict=True)):
+        return EngineState(True, "cached", 0.0, why)
+    return EngineState(False, "compiles", precompiled.compile_estimate_s(manifest), why)
+
+
+def _warm_up_steps() -> list[Callable[[], object]]:
+    """One call of each entry point with the argument types the library passes, in the
+    order a prediction needs them."""
+    design = x_face(0.25, 1.0)
+    physics = Physics()
+    thetas = np.array([0.1, 0.2])
+    xs = np.array([0.1, -0.2])
+
+    def contact_points() -> object:
+        return contact_geometry(design, np.zeros(1, dtype=np.int64), 0.0, 0.0, 0.0, 2.0)
+
+    return [
+        lambda: _engine.pairs.fill_extents(pair_table(design).data.copy()),
+        lambda: start_height(design, 0.1),
+        lambda: start_heights(design, thetas),
+        lambda: simulate_pose(design, 0.1, 0.2, physics, path=False),
+        lambda: simulate_pose(design, 0.1, 0.2, physics, path=True),
+        lambda: run_flat(design, xs, thetas, physics, threads=1),
+        contact_points,
+    ]
+
+
+def warm_up_engine(progress: Callable[[int, int], None] | None = None) -> None:
+    """Load, or compile, every entry point of the engine before it is needed, so that the
+    first real query answers at full speed; ``progress(done, total)`` after each one.
+
+    Seconds when the engine is precompiled or cached (:func:`engine_state`), else the compile
+    (about a minute of CPU). The node runs it on its worker thread while it warms up, the
+    install's build runs it to make the precompiled engine."""
+    steps = _warm_up_steps()
+    for done, step in enumerate(steps, start=1):
+        step()
+        if progress is not None:
+            progress(done, len(steps))
 
 
 def engine_model(design: FaceDesign) -> _engine.Model:
@@ -374,17 +448,18 @@ def run_flat(
         ys = np.where(valid, ys, 0.0)
     model = engine_model(design)
     opts = _engine.make_options(physics)
+    # The one argument type the engine is compiled for (and shipped with): C-contiguous.
+    xs, ts, ys = (np.ascontiguousarray(a, dtype=np.float64) for a in (xs, ts, ys))
     n_threads = min(thread_count(threads), max(1, len(xs) // MIN_POSES_PER_THREAD))
     if n_threads == 1:
         return _engine.simulate_many(model, opts, xs, ts, ys, valid)
-    # Interleaved chunks balance the load: hard poses cluster in parts of a map.
+    # Interleaved chunks balance the load: hard poses cluster in parts of a map. Each is
+    # copied into contiguous arrays: a strided view is another argument type, for which
+    # numba would compile (and the install would have to ship) a second simulate_many.
     parts = [slice(k, None, n_threads) for k in range(n_threads)]
+    chunks = [tuple(np.ascontiguousarray(a[p]) for a in (xs, ts, ys, valid)) for p in parts]
     with ThreadPoolExecutor(n_threads) as pool:
-        results = list(
-            pool.map(
-                lambda p: _engine.simulate_many(model, opts, xs[p], ts[p], ys[p], valid[p]), parts
-            )
-        )
+        results = list(pool.map(lambda c: _engine.simulate_many(model, opts, *c), chunks))
     out = np.empty(len(xs), dtype=_engine.RUN_DTYPE)
     for part, res in zip(parts, results, strict=True):
         out[part] = res

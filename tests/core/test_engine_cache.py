@@ -65,23 +65,15 @@ def test_the_digest_changes_with_any_source(tmp_path: Path) -> None:
     assert _stale.source_digest(files) != before
 
 
-class _FakeCache:
-    def __init__(self, path: str) -> None:
-        self._cache_path = path
-
-
-def test_an_empty_or_missing_cache_is_not_cached(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+@pytest.mark.parametrize("ready", [True, False])
+def test_engine_is_cached_says_whether_the_engine_state_is_ready(
+    ready: bool, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    from xface_core import _engine, runner
+    from xface_core import runner
 
-    monkeypatch.setattr(_engine.simulate_many, "_cache", _FakeCache(str(tmp_path / "none")))
-    assert not runner.engine_is_cached()
-    monkeypatch.setattr(_engine.simulate_many, "_cache", _FakeCache(str(tmp_path)))
-    (tmp_path / _stale.STAMP_NAME).write_text("digest")  # the stamp alone is no cache
-    assert not runner.engine_is_cached()
-    _fill(tmp_path)
-    assert runner.engine_is_cached()
+    state = runner.EngineState(ready, "cached" if ready else "compiles", 0.0 if ready else 60.0)
+    monkeypatch.setattr(runner, "engine_state", lambda: state)
+    assert runner.engine_is_cached() is ready
 
 
 def test_the_cache_after_a_simulation_is_cached() -> None:

@@ -31,10 +31,39 @@ Trig = tuple[float, float, float, float]
 _F = TypeVar("_F", bound=Callable[..., Any])
 #: numba's flags for every kernel without reference counting (:func:`njit_no_refcount`).
 _NO_REFCOUNT_FLAGS: dict[str, Any] = {"cache": True, "nogil": True, "_nrt": False}
+#: numba's flags for the kernels that allocate or hand arrays to Python (:func:`njit_cached`).
+_CACHED_FLAGS: dict[str, Any] = {"cache": True, "nogil": True}
+
+
+def one_specialization_per_type(dispatcher: _F) -> _F:
+    """Make the compiled ``dispatcher`` compile one version per argument *type* when another
+    kernel calls it, not one per literal value.
+
+    numba types a constant argument (a code such as ``O_SEATED``, a flag, a count) as a
+    literal of its value and compiles the callee, and everything it calls, once per value:
+    ``end_run`` had 14 versions and the engine 186 compiled functions where 131 kernels
+    suffice. Compiling for the plain type instead gives the same machine arithmetic (numba
+    does not compile with fast-math, so LLVM may not reassociate; the golden maps are equal
+    bit for bit) and cut a fresh install's first ``xface predict`` from 128 to 96 s of CPU
+    (docs/notes/2026-11-28-engine-compile-time.md).
+    """
+    from numba.core import types
+
+    plain_call_template = cast(Any, dispatcher).get_call_template
+
+    def get_call_template(args: tuple[Any, ...], kws: dict[str, Any]) -> Any:
+        return plain_call_template(
+            tuple(types.unliteral(a) for a in args),
+            {key: types.unliteral(value) for key, value in kws.items()},
+        )
+
+    cast(Any, dispatcher).get_call_template = get_call_template
+    return dispatcher
 
 
 def njit_no_refcount(fn: _F) -> _F:
-    """Compile a kernel without numba's reference counting (NRT), cached, GIL released.
+    """Compile a kernel without numba's reference counting (NRT), cached, GIL released, one
+    version per argument type (:func:`one_specialization_per_type`).
 
     With NRT every call counts a reference, an atomic add and subtract, for every array it
     is passed and every array it reads out of a record; over the engine's many small stage
@@ -42,10 +71,17 @@ def njit_no_refcount(fn: _F) -> _F:
     without it the engine runs in about half the old kernel's time (``scripts/
     bench_side_by_side.py``). The price: such a kernel, and every kernel it calls, must not
     allocate (no np.empty, no slice copies) and must not return arrays (the caller would
-    release a reference it never got). Kernels that allocate keep ``@njit(cache=True,
-    nogil=True)``; numba compiles their callees with NRT as their own flags say.
+    release a reference it never got). Kernels that allocate use :func:`njit_cached`;
+    numba compiles their callees with NRT as their own flags say.
     """
-    return cast(_F, njit(**_NO_REFCOUNT_FLAGS)(fn))
+    return one_specialization_per_type(cast(_F, njit(**_NO_REFCOUNT_FLAGS)(fn)))
+
+
+def njit_cached(fn: _F) -> _F:
+    """Compile a kernel that allocates or returns arrays (with numba's reference counting),
+    cached, GIL released, one version per argument type: the entry points and their
+    helpers."""
+    return one_specialization_per_type(cast(_F, njit(**_CACHED_FLAGS)(fn)))
 
 
 def njit_inline(fn: _F) -> _F:
@@ -56,7 +92,7 @@ def njit_inline(fn: _F) -> _F:
     arithmetic; the maps 0.94 of their time for ``pairs.eval_pair`` alone (docs/bench.md).
     A caller must pass its arguments one by one (numba cannot inline a call with ``*args``).
     """
-    return cast(_F, njit(**_NO_REFCOUNT_FLAGS, inline="always")(fn))
+    return one_specialization_per_type(cast(_F, njit(**_NO_REFCOUNT_FLAGS, inline="always")(fn)))
 
 
 # ---- codes as plain ints (numba folds module globals into constants) ---------------------
@@ -315,7 +351,7 @@ class Work(NamedTuple):
     :func:`~.segment.start_segment`)."""
 
 
-@njit(cache=True, nogil=True)
+@njit_cached
 def new_work(model: Model, opts: Options) -> Work:
     """Fresh scratch arrays for one run (or a batch of runs, :func:`reset_work` between
     them), set as a run starts by :func:`reset_work` itself."""

@@ -50,6 +50,7 @@ from .records import (
     Model,
     Options,
     Work,
+    njit_cached,
     njit_no_refcount,
 )
 from .scan import asleep, find_event, reach_budget, wake
@@ -119,7 +120,7 @@ def _segment(model: Model, opts: Options, run: Run, work: Work) -> Segment:
     )  # fmt: skip
 
 
-@njit(cache=True, nogil=True)  # returns arrays (in the Segment) to Python: needs NRT
+@njit_cached  # returns arrays (in the Segment) to Python: needs NRT
 def begin_segment(
     model: Model, opts: Options, run: Run, work: Work, path: FloatArray, path_pairs: IntArray
 ) -> Segment:

@@ -18,7 +18,6 @@ import math
 
 import numpy as np
 import numpy.typing as npt
-from numba import njit
 
 from .ends import Run
 from .interval import approach, begin_interval, start_run
@@ -32,6 +31,7 @@ from .records import (
     Options,
     Work,
     new_work,
+    njit_cached,
     njit_no_refcount,
     reset_work,
 )
@@ -69,7 +69,7 @@ def simulate(
             follow_contacts(model, opts, run, work, path, path_pairs)
 
 
-@njit(cache=True, nogil=True)
+@njit_cached
 def simulate_one(
     model: Model,
     opts: Options,
@@ -84,7 +84,7 @@ def simulate_one(
     simulate(model, opts, x0, theta0, y_start, runs[0], path, path_pairs, new_work(model, opts))
 
 
-@njit(cache=True, nogil=True)
+@njit_cached
 def simulate_many(
     model: Model,
     opts: Options,
@@ -112,7 +112,7 @@ def simulate_many(
     return runs
 
 
-@njit(cache=True, nogil=True)
+@njit_cached
 def lowest_reach(vertices: FloatArray, theta: float) -> float:
     """max over body points v of (sin theta v_x + cos theta v_y): how far the moving part,
     turned by theta, reaches below its pivot (D)."""
@@ -123,7 +123,7 @@ def lowest_reach(vertices: FloatArray, theta: float) -> float:
     return best
 
 
-@njit(cache=True, nogil=True)
+@njit_cached
 def start_heights_of(
     vertices: FloatArray, base_top: float, clearance: float, thetas: FloatArray
 ) -> FloatArray:
@@ -158,7 +158,7 @@ def option_values(opts: Options) -> FloatArray:
     return values
 
 
-@njit(cache=True, nogil=True)
+@njit_cached
 def _options(v: FloatArray) -> Options:
     """:class:`Options` from :func:`option_values` (of the same numba type as the NamedTuple
     made in Python, so the same compiled ``simulate`` runs)."""
@@ -175,7 +175,7 @@ FinalValues = tuple[float, int, int, float, float, float, int, int, int, int]
 PathArrays = tuple[FloatArray, FloatArray, FloatArray, FloatArray, IntArray, IntArray]
 
 
-@njit(cache=True, nogil=True)
+@njit_cached
 def _start(
     vertices: FloatArray, base_top: float, clearance: float, theta0: float, y_start: float
 ) -> float:
@@ -186,7 +186,7 @@ def _start(
     return y_start
 
 
-@njit(cache=True, nogil=True)
+@njit_cached
 def _run_recorded(
     model: Model, opts: Options, x0: float, theta0: float, y_start: float, n_buf: int
 ) -> tuple[npt.NDArray[np.void], FloatArray, IntArray]:
@@ -207,7 +207,7 @@ def _run_recorded(
         n_buf = runs[0].n_samples
 
 
-@njit(cache=True, nogil=True)
+@njit_cached
 def _run_pose(
     pairs: FloatArray, base_edges: FloatArray, moving_edges: FloatArray,
     mated_distance: float, options: FloatArray, vertices: FloatArray, base_top: float,
@@ -222,7 +222,7 @@ def _run_pose(
     return runs, path, path_pairs, y0
 
 
-@njit(cache=True, nogil=True)
+@njit_cached
 def _final_values(run: Run, y_start: float) -> FinalValues:
     """The run's end as plain values: start height and final height (D), outcome and reason
     codes, final angles (rad), counters."""
@@ -240,7 +240,7 @@ def _final_values(run: Run, y_start: float) -> FinalValues:
     )
 
 
-@njit(cache=True, nogil=True)
+@njit_cached
 def simulate_final(
     pairs: FloatArray,
     base_edges: FloatArray,
@@ -265,7 +265,7 @@ def simulate_final(
     return _final_values(runs[0], y0)
 
 
-@njit(cache=True, nogil=True)
+@njit_cached
 def path_arrays(
     path: FloatArray, pairs: IntArray, n: int, x0: float, y_start: float, scale: float
 ) -> PathArrays:
@@ -289,7 +289,7 @@ def path_arrays(
     return descent, phi_b, phi_m, pivot, phase, contact
 
 
-@njit(cache=True, nogil=True)
+@njit_cached
 def simulate_path(
     pairs: FloatArray,
     base_edges: FloatArray,
