@@ -237,15 +237,11 @@ def verify_recording(rerun: Path, recording: Path) -> str | None:
 
 def _parse(argv: list[str] | None) -> argparse.Namespace:
     parser = argparse.ArgumentParser(prog="demo_fresh_clone.py", description=__doc__.split("\n")[0])
-    parser.add_argument(
-        "--venv", type=Path, default=None,
-        help="an installed virtualenv for make demo VENV=... (default: the clone's own .venv)",
-    )  # fmt: skip
+    venv_help = "an installed virtualenv for make demo VENV=... (default: the clone's own .venv)"
+    parser.add_argument("--venv", type=Path, help=venv_help)
     parser.add_argument("--busy", type=int, default=2, help="CPU-bound processes (default 2)")
-    parser.add_argument(
-        "--domain-id", type=int, default=os.getpid() % 99 + 1,
-        help="ROS_DOMAIN_ID of the demo (default 1-99 from the process id)",
-    )  # fmt: skip
+    domain_help = "ROS_DOMAIN_ID of the demo (default 1-99 from the process id)"
+    parser.add_argument("--domain-id", type=int, default=os.getpid() % 99 + 1, help=domain_help)
     parser.add_argument("--keep", action="store_true", help="keep the temporary folder")
     parser.add_argument("--quiet", action="store_true", help="do not echo make's output")
     return parser.parse_args(argv)
