@@ -17,6 +17,7 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
+from importlib.util import find_spec
 from pathlib import Path
 
 from setuptools import setup
@@ -33,6 +34,10 @@ class BuildPyWithEngine(build_py):  # type: ignore[misc]
         super().run()
         if os.environ.get("XFACE_PRECOMPILE", "1") == "0":
             print("xface: XFACE_PRECOMPILE=0: the engine compiles on first use", flush=True)
+            return
+        missing = [m for m in ("numpy", "numba", "shapely", "yaml") if find_spec(m) is None]
+        if missing:  # a build without the core's dependencies (colcon's own environment)
+            print(f"xface: no {', '.join(missing)} here: the engine compiles on first use")
             return
         root = Path(__file__).resolve().parent if self.editable_mode else Path(self.build_lib)
         print("xface: precompiling the engine (about 1-2 minutes of CPU)", flush=True)
