@@ -225,7 +225,10 @@ class PredictionWorker:
         same (each pose reports it again)."""
         t0 = time.perf_counter()
         state = engine_state()
-        self._logger.info(f"simulator: {state.describe()}")
+        # Why the install's precompiled engine does not serve (an install that skipped it, a
+        # numba upgrade, edited engine sources): the reason a first start compiles.
+        why = "" if state.ready else f"; {state.why_not_precompiled or 'not precompiled'}"
+        self._logger.info(f"simulator: {state.describe()}{why}")
         self.stats.start_warm_up(state.source)
         if not state.ready:  # say why the first poses wait
             self._logger.info(COMPILING_LOG)

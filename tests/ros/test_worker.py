@@ -164,7 +164,10 @@ def test_a_failed_warm_up_is_logged_and_ends_the_warm_up(
     assert any("warm-up prediction failed" in line for line in logger.lines["warning"])
 
 
-COMPILES = EngineState(ready=False, source="compiles", compile_estimate_s=60.0)
+COMPILES = EngineState(
+    ready=False, source="compiles", compile_estimate_s=60.0,
+    why_not_precompiled="no precompiled engine in this install",
+)  # fmt: skip
 CACHED = EngineState(ready=True, source="cached", compile_estimate_s=0.0)
 
 
@@ -184,7 +187,9 @@ def test_the_warm_up_logs_the_engine_state_and_says_so_first_when_it_compiles(
     worker.start()
     worker.submit(at_start(0.0, 0.0), receive_ns=NOW_NS)
     publish.wait_for(1)
-    assert f"simulator: {state.describe()}" in logger.lines["info"]
+    said = [line for line in logger.lines["info"] if line.startswith("simulator: ")]
+    why = "" if state.ready else "; no precompiled engine in this install"
+    assert said == [f"simulator: {state.describe()}{why}"]  # one line, and why it compiles
     assert (worker_module.COMPILING_LOG in logger.lines["info"]) is not state.ready
     assert worker.take_stats(LATER_NS).counts.engine == state.source
 
