@@ -48,6 +48,13 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
 SHELL_TAGS = {"sh", "bash"}
+
+#: Runs the command after it with SIGINT at its default disposition, as in a terminal: a suite
+#: started from a background job of a shell without job control inherits SIGINT ignored, and
+#: a non-interactive bash can neither trap nor reset a signal ignored on entry (``trap - INT``
+#: leaves it ignored), so a block would never see the Ctrl-C of a background block's test.
+_RESET_SIGINT = "import os, signal, sys; signal.signal(signal.SIGINT, signal.SIG_DFL); "
+DEFAULT_SIGINT = [sys.executable, "-c", _RESET_SIGINT + "os.execvp(sys.argv[1], sys.argv[1:])"]
 #: What a fence may be tagged with; a new tag is a decision (is it a command?), not an accident.
 KNOWN_TAGS = SHELL_TAGS | {"python", "yaml", "text", "json", "toml", "xml"}
 #: A block's run, at most (the slowest, a Dask sweep or a full-size table, take about a minute).
@@ -342,7 +349,7 @@ def run_block(block: Block, cwd: Path, env: dict[str, str], log: Path) -> None:
     with log.open("wb") as out:
         # A file, not a pipe: a block's `&` jobs would hold a pipe open after it ends.
         proc = subprocess.Popen(
-            ["bash", "-e", "-o", "pipefail", "-c", block.text],
+            [*DEFAULT_SIGINT, "bash", "-e", "-o", "pipefail", "-c", block.text],
             cwd=cwd,
             env=env,
             stdin=subprocess.DEVNULL,

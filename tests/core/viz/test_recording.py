@@ -38,6 +38,13 @@ from xface_core.viz.recording import (
 )
 
 RERUN_CLI = Path(sys.executable).with_name("rerun")
+
+#: Runs the command after it with SIGINT at its default disposition: a suite started from a
+#: background job of a shell without job control inherits SIGINT ignored, and so would the
+#: child (Python and the rerun CLI keep an inherited ignore), never seeing our Ctrl-C.
+_RESET_SIGINT = "import os, signal, sys; signal.signal(signal.SIGINT, signal.SIG_DFL); "
+DEFAULT_SIGINT = [sys.executable, "-c", _RESET_SIGINT + "os.execvp(sys.argv[1], sys.argv[1:])"]
+
 STAMP_NS = 1_700_000_000_123_456_789
 
 
@@ -324,10 +331,9 @@ def test_rrd_verify_accepts_a_prediction(tmp_path: Path, seated: Prediction) -> 
 
 
 def _interrupt(proc: subprocess.Popen[Any], timeout_s: float) -> None:
-    """Ctrl-C to ``proc`` (started in a session of its own) and wait for it. One that does
-    not end in time is killed with its children, so a failed test leaves no server behind:
-    a suite run from a background job of a shell without job control inherits SIGINT
-    ignored, and its children then never see the interrupt."""
+    """Ctrl-C to ``proc`` (started in a session of its own, through DEFAULT_SIGINT) and wait
+    for it. One that does not end in time is killed with its children, so a failed test
+    leaves no server behind."""
     proc.send_signal(signal.SIGINT)
     try:
         proc.wait(timeout=timeout_s)
@@ -353,7 +359,7 @@ def test_file_is_finished_after_sigint(tmp_path: Path) -> None:
     # A process interrupted without calling disconnect(): rerun finishes the file at exit.
     path = tmp_path / "interrupted.rrd"
     proc = subprocess.Popen(
-        [sys.executable, "-c", _RECORD_AND_WAIT, str(path)],
+        [*DEFAULT_SIGINT, sys.executable, "-c", _RECORD_AND_WAIT, str(path)],
         stdout=subprocess.PIPE,
         text=True,
         cwd=Path(__file__).resolve().parents[3],
@@ -446,8 +452,9 @@ def test_url_streams_to_a_live_viewer(tmp_path: Path, seated: Prediction) -> Non
     # The rerun CLI as a headless gRPC sink that saves what it receives.
     port = _free_port()
     saved = tmp_path / "live.rrd"
+    serve = [str(RERUN_CLI), "--bind", "127.0.0.1", "--port", str(port), "--save", str(saved)]
     proc = subprocess.Popen(
-        [str(RERUN_CLI), "--bind", "127.0.0.1", "--port", str(port), "--save", str(saved)],
+        [*DEFAULT_SIGINT, *serve],
         stdout=subprocess.DEVNULL,
         stderr=subprocess.DEVNULL,
         start_new_session=True,
