@@ -32,6 +32,7 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 
+from .cli_study import atomic_output
 from .contact import clear_cache
 from .errors import XfaceValueError
 from .geometry import FaceDesign, make_face
@@ -246,17 +247,21 @@ def _work_precision(
     return rows
 
 
+def _write_text(path: Path, text: str) -> None:
+    """``path`` holds ``text`` whole, or its old content if interrupted (atomic_output)."""
+    with atomic_output(path, "the bench table") as aside:
+        Path(aside).write_text(text)
+
+
 def _write_table(rows: list[dict[str, object]], out: Path) -> None:
     keys = list(rows[0])
-    with open(out / "work_precision.csv", "w") as fh:
-        fh.write(",".join(keys) + "\n")
-        for r in rows:
-            fh.write(",".join(str(r[k]) for k in keys) + "\n")
-    with open(out / "work_precision.md", "w") as fh:
-        fh.write("| " + " | ".join(keys) + " |\n|" + "---|" * len(keys) + "\n")
-        for r in rows:
-            cells = [f"{v:.3g}" if isinstance(v, float) else str(v) for v in r.values()]
-            fh.write("| " + " | ".join(cells) + " |\n")
+    csv = [",".join(keys)] + [",".join(str(r[k]) for k in keys) for r in rows]
+    _write_text(out / "work_precision.csv", "\n".join(csv) + "\n")
+    md = ["| " + " | ".join(keys) + " |", "|" + "---|" * len(keys)]
+    for r in rows:
+        cells = [f"{v:.3g}" if isinstance(v, float) else str(v) for v in r.values()]
+        md.append("| " + " | ".join(cells) + " |")
+    _write_text(out / "work_precision.md", "\n".join(md) + "\n")
 
 
 def _targets(quick: bool, repeats: int, steps: _Steps) -> list[str]:
@@ -391,17 +396,19 @@ def run_bench(args: argparse.Namespace) -> int:
     )
     if DEFAULT_SETTINGS.rtol not in rtols:
         rtols.append(DEFAULT_SETTINGS.rtol)
-    from .viz.benchplot import plot_work_precision  # matplotlib, from the viz extra
+    from .viz.benchplot import work_precision_figure  # matplotlib, from the viz extra
+    from .viz.figures import save
 
     total = _n_steps(len(designs), len(rtols), quick)
     with terminal_progress(args.quiet, partial(ProgressBar, label="bench", unit="steps")) as bar:
         steps = _Steps(bar, total)
         rows = _work_precision(designs, sorted(rtols, reverse=True), repeats, steps)
         _write_table(rows, out)
-        plot_work_precision(rows, out)
+        with atomic_output(out / "work_precision.png", "the bench plot") as aside:
+            save(work_precision_figure(rows), aside, "png")
         lines = _targets(quick, repeats, steps)
     lines += _pymunk_lines(quick, repeats)
-    (out / "targets.md").write_text("\n".join(lines) + "\n")
+    _write_text(out / "targets.md", "\n".join(lines) + "\n")
     print("\n".join(lines))
     clean = [r for r in rows if r["symmetry"] and r["mismatch_other"] == 0]
     if clean:

@@ -8,24 +8,36 @@ machines. Recordings (``--rrd``), pictures (``--png``, ``--svg``) and the bench 
 ``viz`` extra (rerun-sdk, matplotlib); without it they exit with code 2 and say so, before
 simulating.
 ``xface crosscheck`` needs the ``crosscheck`` extra (pymunk) in the same way.
+
+Exit codes: 0 done; 2 a user error (one ``xface: error: ...`` line on stderr), also for a
+closed stdout (``>&-``: the answer would be lost, so nothing runs); 130 interrupted (Ctrl-C;
+a study also on SIGTERM): one ``xface: interrupted`` line, no traceback; 141 the reader of
+stdout went away (``| head``): quiet, what a shell reports for a writer killed by SIGPIPE.
+A closed stderr (``2>&-``) changes nothing but the messages, which are lost. Files named by
+``--png``, ``--svg`` and ``--rrd`` (and the bench's) are written aside and renamed when whole:
+an interrupted or failed run leaves the old file or none, never half of a new one.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
 import json
 import math
 import os
+import signal
 import sys
-from collections.abc import Sequence
+import threading
+from collections.abc import Iterator, Sequence
 from dataclasses import replace
 from functools import partial
+from types import FrameType
 from typing import Any
 
 import numpy as np
 
-from .cli_study import add_study_commands
+from .cli_study import EXIT_INTERRUPTED, add_study_commands, atomic_output
 from .errors import XfaceError, XfaceValueError
 from .facefile import load_face
 from .frames import NotFacingError, check_facing
@@ -227,10 +239,11 @@ def _cmd_predict(args: argparse.Namespace) -> int:
     if args.rrd:
         from .viz.recording import log_prediction, new_recording
 
-        rec = new_recording(path=args.rrd)
-        log_prediction(rec, pred)
-        rec.flush()
-        rec.disconnect()
+        with atomic_output(args.rrd, "the recording") as aside:
+            rec = new_recording(path=aside)
+            log_prediction(rec, pred)
+            rec.flush()
+            rec.disconnect()
     if args.json:
         out = _prediction_json(pred)
         if uncertainty is not None:
@@ -383,20 +396,22 @@ def _cmd_map(args: argparse.Namespace) -> int:
     if args.png or args.svg:
         from .viz.mapimage import save_map_picture
 
-        for path, fmt in ((args.png, "png"), (args.svg, "svg")):
-            if path:
-                save_map_picture(amap, path, fmt=fmt)  # type: ignore[arg-type]
+        for target, fmt in ((args.png, "png"), (args.svg, "svg")):
+            if target:
+                with atomic_output(target, "the picture") as aside:
+                    save_map_picture(amap, aside, fmt=fmt)  # type: ignore[arg-type]
     if args.rrd:
         from .viz.recording import default_blueprint, log_acceptance_map, new_recording
 
-        # Its own application id: the viewer keeps one layout per id, so a map opens on
-        # the map tab even in a viewer that showed predictions.
-        rec = new_recording(
-            application_id="xface-map", path=args.rrd, blueprint=default_blueprint(active="map")
-        )
-        log_acceptance_map(rec, amap)
-        rec.flush()
-        rec.disconnect()
+        with atomic_output(args.rrd, "the recording") as aside:
+            # Its own application id: the viewer keeps one layout per id, so a map opens on
+            # the map tab even in a viewer that showed predictions.
+            rec = new_recording(
+                application_id="xface-map", path=aside, blueprint=default_blueprint(active="map")
+            )
+            log_acceptance_map(rec, amap)
+            rec.flush()
+            rec.disconnect()
     if args.json:
         print(json.dumps(_map_json(amap)))
         return 0
@@ -486,9 +501,10 @@ def _cmd_compare(args: argparse.Namespace) -> int:
             + (f", c_B/c_M {ph.damping_ratio:g}" if ph.damping_ratio != 1.0 else "")
             for _, ph, d in sides
         ]
-        for path, fmt in ((args.png, "png"), (args.svg, "svg")):
-            if path:
-                save_comparison(maps[0], maps[1], path, labels=(titles[0], titles[1]), fmt=fmt)  # type: ignore[arg-type]
+        for target, fmt in ((args.png, "png"), (args.svg, "svg")):
+            if target:
+                with atomic_output(target, "the picture") as aside:
+                    save_comparison(maps[0], maps[1], aside, labels=(titles[0], titles[1]), fmt=fmt)  # type: ignore[arg-type]
     counts = {
         "both": diff.count(SeatedIn.BOTH),
         "only_a": diff.count(SeatedIn.ONLY_A),
@@ -806,34 +822,145 @@ def _say_if_compiling(args: argparse.Namespace) -> None:
         print(COMPILING_NOTICE, file=sys.stderr, flush=True)
 
 
+def _descriptor_closed(fd: int) -> bool:
+    try:
+        os.fstat(fd)
+    except OSError:
+        return True
+    return False
+
+
+def _to_devnull(fd: int) -> None:
+    """Point descriptor ``fd`` at /dev/null: what is still buffered for it, and Python's own
+    flush at exit, then go nowhere instead of failing (exit 120 and an 'Exception ignored'
+    message after the run's end)."""
+    null = os.open(os.devnull, os.O_WRONLY)
+    if null != fd:
+        os.dup2(null, fd)
+        os.close(null)
+
+
+def _null_closed_streams() -> bool:
+    """Make a closed stdout or stderr (``>&-``, ``2>&-``) a stream to /dev/null, and say
+    whether stdout was closed. Python starts with ``sys.stderr`` None then, and
+    ``print(file=None)`` writes to stdout; the descriptor gets /dev/null before anything
+    opens a file that would take its number (a recording that would receive rerun's
+    warnings)."""
+    lost = set()
+    for fd, name in ((1, "stdout"), (2, "stderr")):
+        closed = _descriptor_closed(fd)
+        if closed:
+            _to_devnull(fd)
+        if closed or getattr(sys, name) is None:
+            setattr(sys, name, open(os.devnull, "w"))  # noqa: SIM115 (open until exit)
+            lost.add(name)
+    return "stdout" in lost
+
+
+def _say(line: str) -> None:
+    """``line`` on stderr; a stderr that cannot take it (a dead pipe) goes to /dev/null, so
+    that neither this nor Python's flush at exit turns the run's end into a traceback."""
+    try:
+        print(line, file=sys.stderr, flush=True)
+    except OSError:
+        _to_devnull(2)
+
+
+class _Interrupt:
+    """Whether SIGINT arrived during :func:`main`."""
+
+    seen = False
+
+
+@contextlib.contextmanager
+def _sigint_raises() -> Iterator[_Interrupt]:
+    """For the block, SIGINT raises KeyboardInterrupt in this process and is remembered: an
+    error that follows it (numba interrupted while compiling raises RuntimeError, a process
+    pool whose workers ended raises BrokenProcessPool) is the interrupt's doing, not a bug to
+    show. A process forked meanwhile inherits the handler: there (m_table's pool workers,
+    which would each print a traceback, and whose pool would finish their queued maps before
+    the command could end) it exits at once and quietly, and the main process reports. Left
+    as it is when SIGINT is ignored (a background job of a shell without job control) or
+    handled by someone else."""
+    interrupt = _Interrupt()
+    if (
+        threading.current_thread() is not threading.main_thread()
+        or signal.getsignal(signal.SIGINT) is not signal.default_int_handler
+    ):
+        yield interrupt
+        return
+    owner = os.getpid()
+
+    def on_sigint(signum: int, frame: FrameType | None) -> None:
+        if os.getpid() != owner:
+            os._exit(EXIT_INTERRUPTED)
+        interrupt.seen = True
+        raise KeyboardInterrupt
+
+    signal.signal(signal.SIGINT, on_sigint)
+    try:
+        yield interrupt
+    finally:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+
+
+#: Exit code when the reader of stdout went away: 128 + SIGPIPE, what a shell reports for a
+#: writer the pipe killed (Python ignores SIGPIPE and sees EPIPE instead).
+EXIT_BROKEN_PIPE = 141
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of the ``xface`` console script."""
-    args = build_parser().parse_args(argv)
+    """Entry point of the ``xface`` console script; returns the exit code (the module
+    docstring lists them)."""
+    if _null_closed_streams():
+        _say("xface: error: stdout is closed: nowhere to write the answer")
+        return 2
+    with _sigint_raises() as interrupt:
+        try:
+            return _run(argv)
+        except KeyboardInterrupt:
+            pass
+        except BrokenPipeError:
+            # The reader went away (``xface ... | head``): nothing more to say, and Python's
+            # flush at exit must not raise again on the dead descriptor.
+            _to_devnull(1)
+            _to_devnull(2)
+            return EXIT_BROKEN_PIPE
+        except Exception:
+            if not interrupt.seen:
+                raise
+        _say("xface: interrupted")
+        return EXIT_INTERRUPTED
+
+
+def _run(argv: Sequence[str] | None) -> int:
+    """Parse ``argv`` and run its command; user errors are one line on stderr and exit 2."""
+    try:
+        args = build_parser().parse_args(argv)
+    except SystemExit as exc:  # --help or a usage error: said already
+        sys.stdout.flush()
+        return exc.code if isinstance(exc.code, int) else 0 if exc.code is None else 2
     try:
         _check_workers(args)
         _check_viz(args)
         _check_crosscheck(args)
         _say_if_compiling(args)
         result: int = args.func(args)
-        sys.stdout.flush()  # a closed pipe shows here, inside the handler, not at exit
+        sys.stdout.flush()  # a closed pipe shows here, inside main, not at exit
     except BrokenPipeError:
-        # The reader went away (``xface ... | head``): nothing more to say, and Python's
-        # own flush at exit must not raise again on the dead descriptor.
-        devnull = os.open(os.devnull, os.O_WRONLY)
-        os.dup2(devnull, sys.stdout.fileno())
-        return 141  # 128 + SIGPIPE, what a shell reports for a writer killed by the pipe
+        raise  # main's: not a user error
     except OSError as exc:  # an unwritable --out/--png/--rrd, a missing file, a full disk
         where = f"{exc.filename}: " if exc.filename else ""
-        print(f"xface: error: {where}{exc.strerror or exc}", file=sys.stderr)
+        _say(f"xface: error: {where}{exc.strerror or exc}")
         return 2
     except _VizMissing as exc:
-        print(f"xface: {exc.args[0]} needs the viz extra: {_VIZ_HINT}", file=sys.stderr)
+        _say(f"xface: {exc.args[0]} needs the viz extra: {_VIZ_HINT}")
         return 2
     except _CrosscheckMissing:
-        print(f"xface: crosscheck needs the crosscheck extra: {_CROSSCHECK_HINT}", file=sys.stderr)
+        _say(f"xface: crosscheck needs the crosscheck extra: {_CROSSCHECK_HINT}")
         return 2
     except XfaceError as exc:
-        print(f"xface: error: {exc}", file=sys.stderr)
+        _say(f"xface: error: {exc}")
         return 2
     return result
 

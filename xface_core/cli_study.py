@@ -10,12 +10,16 @@ SIGTERM stop a sweep after the designs running are written (exit code 130).
 from __future__ import annotations
 
 import argparse
+import errno
 import json
+import os
+import secrets
 import signal
 import sys
 from collections.abc import Iterator
-from contextlib import AbstractContextManager, contextmanager
+from contextlib import AbstractContextManager, contextmanager, suppress
 from functools import partial
+from pathlib import Path
 from typing import Any
 
 from . import progressbar
@@ -26,7 +30,7 @@ from .grids import PAPER_GRID_SIZE
 from .seatprob import PoseNoise
 from .study import MAX_STUDY_GRID, StudyProgress, read_study, run_study
 
-__all__ = ["add_study_commands"]
+__all__ = ["add_study_commands", "atomic_output"]
 
 #: Exit code of a run stopped by SIGINT or SIGTERM (128 + SIGINT, the shell's convention).
 EXIT_INTERRUPTED = 130
@@ -79,6 +83,33 @@ def _interrupted(out: str) -> int:
         file=sys.stderr,
     )
     return EXIT_INTERRUPTED
+
+
+# Here rather than in cli: cli and bench use it too, and cli imports this module.
+@contextmanager
+def atomic_output(path: str | Path, what: str) -> Iterator[str]:
+    """A new file beside ``path`` (hidden, the same suffix, so the writer picks the same
+    format) for the block to write instead; renamed onto ``path`` when the block ends, removed
+    when it raises (Ctrl-C, a full disk): ``path`` is then its old file or absent, never half
+    of a new one that a later run or viewer would take for whole. ``what`` names the file in
+    the error (:class:`XfaceValueError`, exit 2) when it cannot be created; the error names
+    ``path``, not the file aside."""
+    target = Path(path)
+    if target.is_dir():
+        raise XfaceValueError(f"cannot write {what} {str(path)!r}: {os.strerror(errno.EISDIR)}")
+    aside = target.with_name(f".{target.stem}.{secrets.token_hex(4)}.part{target.suffix}")
+    try:
+        # O_EXCL: a name of our own; 0o666 under the umask, as the file written directly had.
+        os.close(os.open(aside, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
+    except OSError as exc:
+        raise XfaceValueError(f"cannot write {what} {str(path)!r}: {exc.strerror}") from None
+    try:
+        yield str(aside)
+        os.replace(aside, target)
+    except BaseException:
+        with suppress(OSError):
+            aside.unlink()
+        raise
 
 
 def _check_grid(grid: int) -> None:
@@ -187,20 +218,23 @@ def _cmd_design(args: argparse.Namespace) -> int:
         with _sigterm_interrupts(), _executor(args) as client, _progress(args, "design") as bar:
             found = search_designs(args.face, executor=client, progress=bar, **kwargs)
     except KeyboardInterrupt:
-        return _interrupted(args.out or "a temporary folder (now removed)")
+        if args.out is None:  # the study was in a temporary folder, now removed: no resuming
+            raise  # the command line's own "xface: interrupted", exit 130
+        return _interrupted(args.out)
     column = CRITERIA[args.criterion]
     best_index = tuple(int(k) for k in divmod(int(found.coarse.argmax()), found.coarse.shape[1]))
     if args.png:
         from .viz.heatmap import save_heatmap_png
 
-        save_heatmap_png(
-            found.coarse,
-            found.h_over_d,
-            found.r_p,
-            args.png,
-            best=(best_index[0], best_index[1]),
-            title=f"{args.face}-Face: {column} (friction {args.friction:g}), best outlined",
-        )
+        with atomic_output(args.png, "the picture") as aside:
+            save_heatmap_png(
+                found.coarse,
+                found.h_over_d,
+                found.r_p,
+                aside,
+                best=(best_index[0], best_index[1]),
+                title=f"{args.face}-Face: {column} (friction {args.friction:g}), best outlined",
+            )
     runners_up = found.ranked[1 : 1 + max(0, args.top)]
     if args.json:
         out = {
