@@ -23,6 +23,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import importlib
+import importlib.metadata
 import json
 import math
 import os
@@ -712,10 +713,50 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     return run_bench(args)
 
 
+def _version() -> str:
+    """The installed distribution's version; the package's ``__version__`` where xface runs
+    from a checkout that was never installed."""
+    try:
+        return importlib.metadata.version("xface")
+    except importlib.metadata.PackageNotFoundError:
+        return str(getattr(sys.modules[__package__], "__version__", "unknown"))
+
+
+def version_text() -> str:
+    """``xface <version>`` and ``engine: <state>`` (ready, or compiles on first use, and how
+    long): the two things a first run depends on. Reads numba's cache and the install; it
+    neither simulates nor imports an extra."""
+    from .runner import engine_state  # only here: every other run would pay for the look
+
+    return f"xface {_version()}\nengine: {engine_state().describe()}"
+
+
+class _VersionAction(argparse.Action):
+    """``--version``: print :func:`version_text` and exit 0, without a subcommand."""
+
+    def __init__(self, option_strings: Sequence[str], dest: str, **kwargs: Any) -> None:
+        super().__init__(option_strings, dest, nargs=0, default=argparse.SUPPRESS, **kwargs)
+
+    def __call__(
+        self,
+        parser: argparse.ArgumentParser,
+        namespace: argparse.Namespace,
+        values: object,
+        option_string: str | None = None,
+    ) -> None:
+        print(version_text(), flush=True)  # flushed here: a dead pipe shows inside main
+        parser.exit(0)
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of ``xface`` (exposed for the docs and the tests)."""
     parser = argparse.ArgumentParser(
         prog="xface", description="Predict passive docking of planar connector faces."
+    )
+    parser.add_argument(
+        "--version",
+        action=_VersionAction,
+        help="the installed version, and whether the first simulation compiles the engine",
     )
     sub = parser.add_subparsers(dest="command", required=True)
 
@@ -937,7 +978,7 @@ def _run(argv: Sequence[str] | None) -> int:
     """Parse ``argv`` and run its command; user errors are one line on stderr and exit 2."""
     try:
         args = build_parser().parse_args(argv)
-    except SystemExit as exc:  # --help or a usage error: said already
+    except SystemExit as exc:  # --help, --version or a usage error: said already
         sys.stdout.flush()
         return exc.code if isinstance(exc.code, int) else 0 if exc.code is None else 2
     try:

@@ -1,21 +1,24 @@
 """The xface command line at its edges (issue 35): Ctrl-C ends a run with one line and exit
 code 130, leaving no half-written file behind; a closed or vanished stdout or stderr ends it
 without a traceback (exit 2 for a closed stdout, 141 for a reader gone, answered as usual with
-stderr closed)."""
+stderr closed); ``--version`` says the version and whether the first simulation compiles."""
 
 from __future__ import annotations
 
+import importlib.metadata
 import os
 import signal
 import subprocess
 import sys
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import pytest
 
+import xface_core.runner as runner
 from xface_core.cli import main
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -283,3 +286,63 @@ def test_a_reader_gone_before_the_help_is_written_ends_quietly_with_141() -> Non
     _, err = proc.communicate(timeout=START_TIMEOUT_S)
     assert err == ""
     assert proc.returncode == 141
+
+
+@dataclass(frozen=True)
+class _FakeEngineState:
+    """runner.EngineState's contract: ``describe()`` is the text ``--version`` shows."""
+
+    ready: bool = False
+    source: str = "compiles"
+    compile_estimate_s: float = 60.0
+
+    def describe(self) -> str:
+        return "compiles on first use (about 60 s)"
+
+
+class _NoEngine:
+    """Stands in for the engine: any use of it is a simulation ``--version`` must not run."""
+
+    def __getattr__(self, name: str) -> Any:
+        raise AssertionError(f"--version used the engine ({name})")
+
+
+def test_version_prints_the_version_and_the_engine_state(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.setattr(runner, "engine_state", _FakeEngineState, raising=False)
+    monkeypatch.setattr(runner, "_engine", _NoEngine())
+    assert main(["--version"]) == 0
+    assert capsys.readouterr().out.splitlines() == [
+        f"xface {importlib.metadata.version('xface')}",
+        "engine: compiles on first use (about 60 s)",
+    ]
+
+
+_VERSION_ALONE = """
+import sys
+from xface_core.cli import main
+from xface_core.runner import engine_state
+code = main(["--version"])
+extras = ("rerun", "matplotlib", "PIL", "pyarrow", "dask", "distributed", "pymunk", "rclpy")
+print(sorted(m for m in extras if m in sys.modules))
+print("engine: " + engine_state().describe())
+sys.exit(code)
+"""
+
+
+def test_version_shows_the_real_engine_state_without_importing_an_extra() -> None:
+    proc = subprocess.run(
+        [sys.executable, "-c", _VERSION_ALONE],
+        cwd=ROOT,
+        env=_env(),
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+    )
+    assert proc.returncode == 0, proc.stderr
+    version, engine, extras, state = proc.stdout.splitlines()
+    assert version.startswith("xface ")
+    assert engine == state  # the engine's own description, looked up again afterwards
+    assert extras == "[]"
