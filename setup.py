@@ -41,7 +41,9 @@ class BuildPyWithEngine(build_py):  # type: ignore[misc]
             return
         root = Path(__file__).resolve().parent if self.editable_mode else Path(self.build_lib)
         print("xface: precompiling the engine (about 1-2 minutes of CPU)", flush=True)
-        env = dict(os.environ, PYTHONPATH=str(root))
+        # pip's isolated build environment reaches its packages through PYTHONPATH: keep it.
+        paths = [str(root), *filter(None, [os.environ.get("PYTHONPATH")])]
+        env = dict(os.environ, PYTHONPATH=os.pathsep.join(paths))
         done = subprocess.run(
             [sys.executable, "-m", "xface_core.precompile", str(root / COMPILED)],
             env=env,
