@@ -1,7 +1,7 @@
 """Time two versions of xface_core side by side: the ratio after/before.
 
     python scripts/bench_side_by_side.py --before <git-rev> [--after <git-rev>|WORKTREE]
-        [--repeats N] [--quick] [--out docs/bench/side_by_side.md] [--note TEXT]
+        [--repeats N] [--quick] [--out docs/notes/DATE-side-by-side-SUBJECT.md] [--note TEXT]
 
 A git revision's ``xface_core/`` is extracted (``git archive``) into a temporary directory as
 a package of its own name (``xface_core_before``/``_after``), its absolute ``xface_core``

@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
-"""How well the grid's diagonal samples the pymunk scene's time per map (docs/bench.md,
-issue 12's eighth round).
+"""How well the grid's diagonal samples the pymunk scene's time per map (docs/bench.md;
+the measurement: docs/notes/2026-11-23-pymunk-whole-map.md).
 
     .venv/bin/python scripts/pymunk_sampling.py            # the bench's four designs, 41 x 41
     .venv/bin/python scripts/pymunk_sampling.py --grid 11 --design X 0.25 2

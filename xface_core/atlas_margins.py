@@ -514,7 +514,7 @@ def margins_from_atlas(
         Threads that share a batch of confirmation simulations (default: one per core). Where
         other busy threads share the cores, fewer are faster: in the ROS node (its executor,
         DDS and a client on two cores) one thread gave a median latency of 2.25-2.47 ms
-        against 2.96-3.19 ms with two (docs/ros.md).
+        against 2.96-3.19 ms with two (docs/notes/2026-11-23-one-margin-thread.md).
 
     Examples
     --------

@@ -124,7 +124,8 @@ BULK_QOS = QoSProfile(
 #: The outputs' publishers take no QoS-event handlers. rclpy's defaults log an incompatible
 #: QoS or message type offered to a subscriber, which that subscriber's own default handler
 #: logs too; and the executor adds every handler to its wait set again for every message it
-#: takes (docs/ros.md: the six outputs' 12 handlers cost it about a fifth of its CPU).
+#: takes (the six outputs' 12 handlers cost it about a fifth of its CPU:
+#: docs/notes/2026-11-23-node-cpu-per-thread.md).
 OUTPUT_EVENT_CALLBACKS = PublisherEventCallbacks(use_default_callbacks=False)
 
 

@@ -5,7 +5,7 @@ node (parameter services, the two services, the timer, guard conditions, QoS-eve
 about 20) for every message it takes. On a 1 kHz pose stream that was about 0.4 ms of
 interpreter time per pose, holding the GIL four tenths of the time, and the prediction
 worker's own Python waited for it: margins from the atlas took 2-2.5 times as long in the
-node as in one process (docs/ros.md, "The poses outside the executor").
+node as in one process (docs/notes/2026-11-24-pose-reader.md).
 
 So the two pose subscriptions sit in a :class:`ReadByPoseReader` callback group, which the
 executor never runs, and a :class:`PoseReader` thread waits on them alone, as rclpy's own
