@@ -649,7 +649,7 @@ class ColdStart:
         subject = self._git(repo, "log", "-1", "--format=%h %s", "HEAD")
         subject = subject if len(subject) <= 72 else subject[:69] + "..."
         self.header.append(
-            f"Source: a clone of HEAD {subject} ({repo}); {len(dirty)} files with uncommitted "
+            f"Source: a clone of HEAD {subject} ({repo}); {len(dirty)} file(s) with uncommitted "
             "changes there are not measured."
         )
 
