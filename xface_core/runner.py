@@ -15,6 +15,7 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import TypeVar, cast
 
+import numba
 import numpy as np
 import numpy.typing as npt
 
@@ -111,6 +112,8 @@ def engine_state() -> EngineState:
     the precompiled engine of the install, numba's cache, or a compile (without simulating;
     a few milliseconds). Compiled already in this process counts as ready."""
     entries = _engine.ENTRY_POINTS
+    if numba.config.DISABLE_JIT:  # the engine runs as plain Python: nothing to compile
+        return EngineState(True, "not compiled: NUMBA_DISABLE_JIT", 0.0)
     in_memory = [bool(entry.overloads) for entry in entries]
     shipped = [precompiled.has_compiled(entry, shipped=True) for entry in entries]
     cached = [precompiled.has_compiled(entry, shipped=False) for entry in entries]

@@ -45,8 +45,9 @@ LOG_THROTTLE_S = 5.0
 
 #: Logged before a warm-up that compiles the simulator (numba's cache holds none of it).
 COMPILING_LOG = (
-    "compiling the simulator first (once per install: about 2 minutes on 2 cores); poses "
-    "wait, /diagnostics says warming up"
+    "compiling the simulator first (the install's precompiled one does not serve this "
+    "process: 1-2 minutes of CPU, then numba's cache keeps it); poses wait, /diagnostics says "
+    "warming up"
 )
 
 #: How long the worker waits for a pose before it checks whether to stop (s).

@@ -49,7 +49,9 @@ def one_specialization_per_type(dispatcher: _F) -> _F:
     """
     from numba.core import types
 
-    plain_call_template = cast(Any, dispatcher).get_call_template
+    plain_call_template = getattr(dispatcher, "get_call_template", None)
+    if plain_call_template is None:  # NUMBA_DISABLE_JIT=1: njit gave the plain function back
+        return dispatcher
 
     def get_call_template(args: tuple[Any, ...], kws: dict[str, Any]) -> Any:
         return plain_call_template(
@@ -84,12 +86,23 @@ def njit_cached(fn: _F) -> _F:
     return one_specialization_per_type(cast(_F, njit(**_CACHED_FLAGS)(fn)))
 
 
+def njit_wrapper(fn: _F) -> _F:
+    """A small helper of the entry points (it may allocate), inlined by numba into each of
+    them instead of compiled on its own: every kernel is a library of its own in which LLVM
+    links and optimises everything it calls again, so each wrapper level between an entry
+    point and ``simulate`` cost one more pass over the whole engine. Inlined, the build of
+    the entry points took 84 instead of 100 s of CPU, with no change at run time
+    (docs/notes/2026-11-28-engine-compile-time.md)."""
+    return one_specialization_per_type(cast(_F, njit(nogil=True, inline="always")(fn)))
+
+
 def njit_inline(fn: _F) -> _F:
     """:func:`njit_no_refcount` for the innermost arithmetic that many stages call and use
     part of (a pair's gap and edge parameter out of its nine values): numba inlines it into
     each caller before LLVM sees it (``inline="always"``), so what a caller does not use is
     never computed and no tuple is passed back through memory. Bit for bit the same
-    arithmetic; the maps 0.94 of their time for ``pairs.eval_pair`` alone (docs/bench.md).
+    arithmetic; the maps 0.94 of their time for ``pairs.eval_pair`` alone
+    (docs/notes/2026-11-24-inlined-pair-arithmetic.md).
     A caller must pass its arguments one by one (numba cannot inline a call with ``*args``).
     """
     return one_specialization_per_type(cast(_F, njit(**_NO_REFCOUNT_FLAGS, inline="always")(fn)))
@@ -152,9 +165,10 @@ CORNER_REACH = 1e-7
 FLAT_GAP = 1e-14
 CUT_DEPTH = 1e-7  # D: deeper than this, a jump to a fold cut into a contact
 #: rad per accepted step: near a fold of the contact path the rate grows without bound and a
-#: long step could jump across thin features. 0.05 and 0.1 change no outcome (issue 12's sixth
-#: round, docs/bench.md) but make final angles less accurate (p99 error 4e-10 -> 1.9e-9 rad
-#: on the bench's maps) and the maps were no faster beyond this machine's noise: not kept.
+#: long step could jump across thin features. 0.05 and 0.1 change no outcome but make final
+#: angles less accurate (p99 error 4e-10 -> 1.9e-9 rad on the bench's maps) and the maps were
+#: no faster beyond this machine's noise: not kept (docs/notes/
+#: 2026-11-23-corner-touching-rule-and-reference-check.md).
 MAX_TURN = 0.02
 #: D of descent ahead at which a friction state is judged: at a transition the state at the
 #: point itself is marginal (motion.friction_modes, events.locate).

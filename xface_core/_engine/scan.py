@@ -712,7 +712,8 @@ def _crossed_at_event(opts: Options, seg: Segment, step: Step, work: Work, nb: f
 def find_event(opts: Options, seg: Segment, step: Step, work: Work, nb: float, nm: float) -> Event:
     """The earliest event in the trial step that ends at ``(nb, nm)``, or ``NO_EVENT``."""
     # The trigonometry of the step's two ends, once for every source (each computed it
-    # again; libm's sincos is about a sixth of the kernel's time, docs/bench.md).
+    # again; libm's sincos is about a sixth of the kernel's time,
+    # docs/notes/2026-11-23-pymunk-whole-map.md).
     start, end = _trig(step.phi_b, step.phi_m), _trig(nb, nm)
     best = _active_events(opts, seg, step, nb, nm, end, NO_EVENT)
     if opts.friction > 0.0:

@@ -33,6 +33,7 @@ from .records import (
     new_work,
     njit_cached,
     njit_no_refcount,
+    njit_wrapper,
     reset_work,
 )
 from .segment import follow_contacts
@@ -158,7 +159,7 @@ def option_values(opts: Options) -> FloatArray:
     return values
 
 
-@njit_cached
+@njit_wrapper
 def _options(v: FloatArray) -> Options:
     """:class:`Options` from :func:`option_values` (of the same numba type as the NamedTuple
     made in Python, so the same compiled ``simulate`` runs)."""
@@ -175,7 +176,7 @@ FinalValues = tuple[float, int, int, float, float, float, int, int, int, int]
 PathArrays = tuple[FloatArray, FloatArray, FloatArray, FloatArray, IntArray, IntArray]
 
 
-@njit_cached
+@njit_wrapper
 def _start(
     vertices: FloatArray, base_top: float, clearance: float, theta0: float, y_start: float
 ) -> float:
@@ -186,7 +187,7 @@ def _start(
     return y_start
 
 
-@njit_cached
+@njit_wrapper
 def _run_recorded(
     model: Model, opts: Options, x0: float, theta0: float, y_start: float, n_buf: int
 ) -> tuple[npt.NDArray[np.void], FloatArray, IntArray]:
@@ -207,7 +208,7 @@ def _run_recorded(
         n_buf = runs[0].n_samples
 
 
-@njit_cached
+@njit_wrapper
 def _run_pose(
     pairs: FloatArray, base_edges: FloatArray, moving_edges: FloatArray,
     mated_distance: float, options: FloatArray, vertices: FloatArray, base_top: float,
@@ -222,7 +223,7 @@ def _run_pose(
     return runs, path, path_pairs, y0
 
 
-@njit_cached
+@njit_wrapper
 def _final_values(run: Run, y_start: float) -> FinalValues:
     """The run's end as plain values: start height and final height (D), outcome and reason
     codes, final angles (rad), counters."""
