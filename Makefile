@@ -48,7 +48,7 @@ $(BIN)/python:
 	$(BIN)/python -m pip install --progress-bar off --upgrade pip
 
 $(STAMP): pyproject.toml | $(BIN)/python
-	$(BIN)/python -m pip install --progress-bar off --editable '.[$(EXTRAS)]'
+	XFACE_PRECOMPILE=require $(BIN)/python -m pip install --progress-bar off --editable '.[$(EXTRAS)]'
 	@touch $@
 
 setup: $(STAMP) ## create .venv/ and install xface with the extras in EXTRAS (default ros,test)

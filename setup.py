@@ -9,7 +9,8 @@ package.xml).
 .`` and ``pip install -e .`` answer their first query in seconds instead of compiling first.
 An editable install writes it into the source tree (``xface_core/_engine/_compiled``, ignored
 by git). A failed compile does not fail the install: the engine then compiles on first use,
-as ``xface --version`` says. ``XFACE_PRECOMPILE=0`` skips the step.
+as ``xface --version`` says. ``XFACE_PRECOMPILE=0`` skips the step, ``XFACE_PRECOMPILE=require``
+(``make setup``) makes a failed one fail the install.
 """
 
 from __future__ import annotations
@@ -32,12 +33,13 @@ class BuildPyWithEngine(build_py):  # type: ignore[misc]
 
     def run(self) -> None:
         super().run()
-        if os.environ.get("XFACE_PRECOMPILE", "1") == "0":
+        mode = os.environ.get("XFACE_PRECOMPILE", "1")
+        if mode == "0":
             print("xface: XFACE_PRECOMPILE=0: the engine compiles on first use", flush=True)
             return
         missing = [m for m in ("numpy", "numba", "shapely", "yaml") if find_spec(m) is None]
         if missing:  # a build without the core's dependencies (colcon's own environment)
-            print(f"xface: no {', '.join(missing)} here: the engine compiles on first use")
+            _give_up(f"no {', '.join(missing)} in the build's environment", mode)
             return
         root = Path(__file__).resolve().parent if self.editable_mode else Path(self.build_lib)
         print("xface: precompiling the engine (about 1-2 minutes of CPU)", flush=True)
@@ -50,11 +52,16 @@ class BuildPyWithEngine(build_py):  # type: ignore[misc]
             check=False,
         )
         if done.returncode != 0:
-            print(
-                "xface: warning: could not precompile the engine; it compiles on first use",
-                file=sys.stderr,
-                flush=True,
-            )
+            _give_up(f"python -m xface_core.precompile exited {done.returncode}", mode)
+
+
+def _give_up(why: str, mode: str) -> None:
+    """Without a precompiled engine the install still works (it compiles on first use), so
+    only ``XFACE_PRECOMPILE=require`` (``make setup``, hence CI) makes it an error."""
+    message = f"xface: could not precompile the engine ({why})"
+    if mode == "require":
+        raise SystemExit(f"{message}; XFACE_PRECOMPILE=require")
+    print(f"{message}; it compiles on first use", file=sys.stderr, flush=True)
 
 
 setup(cmdclass={"build_py": BuildPyWithEngine})

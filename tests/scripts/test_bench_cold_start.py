@@ -106,6 +106,7 @@ def test_table_rows_carry_seconds_cpu_and_the_ratio() -> None:
         second=bench.Timed(1.0, 0.5, 0),
         node_first_s=6.04,
         node_second_s=0.0882,
+        node_restart_s=2.51,
     )
     cold = bench.Result(
         bench.COLD_KIND,
@@ -118,16 +119,17 @@ def test_table_rows_carry_seconds_cpu_and_the_ratio() -> None:
     failed = bench.Result("pip", error="pip-install exited 1")
     lines = bench.format_table([wheel, node, cold, failed]).splitlines()
     assert lines[0] == "| " + " | ".join(bench.HEADER) + " |"
-    assert lines[1] == "|---|---|---|---|---|---|---|---|"
+    assert lines[1] == "|---|---|---|---|---|---|---|---|---|"
     assert lines[2] == (
         "| wheel | 8.0 (build 151.3) | ready (precompiled) | 2.50 (2.25) | 1.25 (1.10) | 2.00 "
-        "| - | - |"
+        "| - | - | - |"
     )
     assert lines[3] == (
-        "| node | 40.0 | ready (precompiled) | 3.00 (2.00) | 1.00 (0.50) | 3.00 | 6.0 | 0.09 |"
+        "| node | 40.0 | ready (precompiled) | 3.00 (2.00) | 1.00 (0.50) | 3.00 | 6.0 | 0.09 "
+        "| 2.5 |"
     )
-    assert lines[4].endswith("| 80.00 (95.50) | 1.00 (0.90) | 80.00 (not checked) | - | - |")
-    assert lines[5] == "| pip | - | - | - | - | failed | - | - |"
+    assert lines[4].endswith("| 1.00 (0.90) | 80.00 (not checked) | - | - | - |")
+    assert lines[5] == "| pip | - | - | - | - | failed | - | - | - |"
     assert all(line.count("|") == len(bench.HEADER) + 1 for line in lines)
 
 
@@ -334,3 +336,12 @@ def test_a_wheel_install_answers_its_first_predict_warm(tmp_path: Path) -> None:
     assert cells[2] == "ready (precompiled)"
     assert float(cells[5]) <= bench.MAX_RATIO
     assert "- wheel: numba cache files the two predicts wrote: 0" in text
+
+
+def test_the_check_fails_when_the_nodes_first_start_answers_over_three_times_later() -> None:
+    node = _result("node", 1.2, 1.1)
+    node.node_first_s, node.node_restart_s = 1.7, 1.0
+    assert bench.failures([node]) == []
+    node.node_first_s = 3.5
+    (why,) = bench.failures([node])
+    assert "3.5x the one after a second start" in why

@@ -3,8 +3,8 @@
 Compiling the engine is what a fresh install's first simulation would pay: about 100 s of CPU
 on these machines. So the build compiles it once (``python -m xface_core.precompile DIR``,
 run by the wheel's build and by ``make setup``) for a generic CPU of the build machine's
-architecture (``NUMBA_CPU_NAME=generic``: the generic build runs at host speed, see
-docs/bench.md), in numba's own cache format, into :data:`SHIPPED_DIR` with a
+architecture (``NUMBA_CPU_NAME=generic``: it runs at host speed, measured by
+``scripts/bench_generic_build.py``), in numba's own cache format, into :data:`SHIPPED_DIR` with a
 :data:`MANIFEST_NAME` that says what it was built from.
 
 At run time every cached engine kernel looks in two places (:class:`ShippedFunctionCache`):
@@ -59,9 +59,9 @@ MANIFEST_NAME = "manifest.json"
 #: The manifest layout this code reads.
 MANIFEST_FORMAT = 1
 #: CPU seconds a compile of the entry points took on these 2-core machines when no build
-#: says otherwise (the first ``xface predict`` with margins, an empty cache:
-#: docs/notes/2026-11-28-engine-compile-time.md).
-TYPICAL_COMPILE_CPU_S = 65.0
+#: says otherwise (the build of the seven entry points: 77-84 s; a fresh install's first
+#: ``xface predict`` compiled 84-112 s under load: docs/notes/2026-11-28-engine-compile-time.md).
+TYPICAL_COMPILE_CPU_S = 90.0
 
 
 def host_triple() -> str:

@@ -124,6 +124,14 @@ def test_the_compile_estimate_is_the_builds_own_measure() -> None:
     assert precompiled.compile_estimate_s(None) == precompiled.TYPICAL_COMPILE_CPU_S
 
 
+def test_the_install_carries_a_precompiled_engine_that_serves() -> None:
+    """``make setup`` (and CI's fresh clone) builds it; after an edit of xface_core/_engine
+    it no longer matches until ``make precompile`` builds it again."""
+    manifest = precompiled.read_manifest(precompiled.SHIPPED_DIR)
+    problem = precompiled.manifest_problem(manifest, precompiled.host_triple())
+    assert problem is None, f"{problem}: run make precompile"
+
+
 # ---- a fresh process with the build ------------------------------------------------------
 
 _WARM_UP = """
