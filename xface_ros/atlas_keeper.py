@@ -13,17 +13,14 @@ from __future__ import annotations
 import threading
 from collections.abc import Callable, Hashable
 from functools import partial
-from typing import TYPE_CHECKING
 
 from xface_core.atlas import AcceptanceAtlas, build_atlas
 from xface_core.errors import Cancelled
 from xface_core.geometry import FaceDesign
 from xface_core.physics import Physics
 from xface_ros.config import NodeConfig
+from xface_ros.log import Logger
 from xface_ros.threadname import name_os_thread
-
-if TYPE_CHECKING:
-    from xface_ros.worker import Logger
 
 __all__ = ["AtlasKeeper"]
 

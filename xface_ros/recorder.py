@@ -7,13 +7,11 @@ rclpy: the node opens it, the worker records into it, the node finishes it at sh
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from xface_core.result import Prediction
 from xface_ros.config import NodeConfig, default_record_path
-
-if TYPE_CHECKING:
-    from xface_ros.worker import Logger
+from xface_ros.log import Logger
 
 __all__ = ["Recorder"]
 

@@ -18,7 +18,6 @@ from __future__ import annotations
 import threading
 import time
 from collections.abc import Callable
-from typing import Any, Protocol
 
 from xface_core.atlas import AcceptanceAtlas
 from xface_core.predict import predict
@@ -35,10 +34,11 @@ from xface_ros.decision import (
     evaluate_streamed,
 )
 from xface_ros.latest import LatestSlot, Received
+from xface_ros.log import Logger
 from xface_ros.recorder import Recorder
 from xface_ros.threadname import name_os_thread
 
-__all__ = ["COMPILING_LOG", "LOG_THROTTLE_S", "Logger", "PredictionWorker", "warm_up_simulator"]
+__all__ = ["COMPILING_LOG", "LOG_THROTTLE_S", "PredictionWorker", "warm_up_simulator"]
 
 #: Seconds between repeats of the same throttled log line.
 LOG_THROTTLE_S = 5.0
@@ -61,14 +61,6 @@ class _WarmUpStopped(Exception):
     """Raised from the warm-up's progress callback once the worker is told to stop: a
     warm-up that compiles takes minutes, and a node shut down meanwhile should not wait for
     all of it (it stops after the entry point in progress)."""
-
-
-class Logger(Protocol):
-    """What the worker needs of a logger (rclpy's node logger has it)."""
-
-    def info(self, message: str, **kwargs: Any) -> Any: ...
-    def warning(self, message: str, **kwargs: Any) -> Any: ...
-    def error(self, message: str, **kwargs: Any) -> Any: ...
 
 
 def warm_up_simulator(config: NodeConfig) -> None:
