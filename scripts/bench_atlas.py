@@ -19,6 +19,7 @@ Usage::
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 import statistics
 import time
@@ -29,9 +30,7 @@ import numpy as np
 import numpy.typing as npt
 
 import xface_core as xf
-import xface_core.atlas_flips as atlas_flips_module
 import xface_core.atlas_margins as atlas_margins_module
-import xface_core.margins as margins_module
 import xface_core.runner as runner_module
 from xface_core.atlas import build_atlas
 
@@ -39,34 +38,24 @@ DESIGNS = (("X", 0.25, 2.0), ("V", 0.5, 1.0), ("S", 1.0, 1.0))
 
 
 class SimulationCounter:
-    """Counts the poses and batch calls that the margin modules send to the engine: through
-    ``predict_batch`` (the exact search) and the engine's flat entry ``run_flat`` (the
-    atlas's confirmations, bisections and grid-line flips)."""
+    """Counts the poses and engine calls of every simulation, from any module and thread
+    (:func:`xface_core.runner.count_engine_calls`: single poses and batches alike), between
+    two :meth:`take` calls."""
 
     def __init__(self) -> None:
-        self.poses = 0
-        self.calls = 0
-        self._real_batch = xf.predict_batch
-        self._real_flat = runner_module.run_flat
-
-    def batch(self, design: xf.FaceDesign, x0: Any, theta0: Any, **kw: Any) -> xf.BatchResult:
-        self.calls += 1
-        self.poses += int(np.broadcast(np.asarray(x0), np.asarray(theta0)).size)
-        return self._real_batch(design, x0, theta0, **kw)
-
-    def flat(self, design: xf.FaceDesign, xs: Any, ts: Any, *args: Any, **kw: Any) -> Any:
-        self.calls += 1
-        self.poses += int(np.asarray(xs).size)
-        return self._real_flat(design, xs, ts, *args, **kw)
+        self._calls: runner_module.EngineCalls | None = None
+        self._block = contextlib.ExitStack()
 
     def install(self) -> None:
-        margins_module.predict_batch = self.batch  # type: ignore[assignment]
-        atlas_margins_module.run_flat = self.flat  # type: ignore[assignment]
-        atlas_flips_module.run_flat = self.flat  # type: ignore[assignment]
+        self._calls = self._block.enter_context(runner_module.count_engine_calls())
 
     def take(self) -> tuple[int, int]:
-        out = (self.poses, self.calls)
-        self.poses = self.calls = 0
+        """(poses, calls) since the last take, and start again from zero."""
+        calls = self._calls
+        if calls is None:
+            raise RuntimeError("SimulationCounter.take before install")
+        out = (calls.poses, calls.calls)
+        calls.poses = calls.calls = 0
         return out
 
 

@@ -8,9 +8,11 @@ engine works in units of D, so outcomes do not depend on the unit.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
-from collections.abc import Callable
+import threading
+from collections.abc import Callable, Iterator
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import TypeVar, cast
@@ -31,8 +33,10 @@ from .result import AlignmentPath, Counters, Prediction
 __all__ = [
     "MAX_OFFSET",
     "BatchResult",
+    "EngineCalls",
     "EngineState",
     "check_pose",
+    "count_engine_calls",
     "engine_is_cached",
     "engine_model",
     "engine_options",
@@ -112,7 +116,7 @@ def engine_state() -> EngineState:
     the precompiled engine of the install, numba's cache, or a compile (without simulating;
     a few milliseconds). Compiled already in this process counts as ready."""
     entries = _engine.ENTRY_POINTS
-    if numba.config.DISABLE_JIT:  # the engine runs as plain Python: nothing to compile
+    if getattr(numba.config, "DISABLE_JIT", False):  # plain Python: nothing to compile
         return EngineState(True, "not compiled: NUMBA_DISABLE_JIT", 0.0)
     in_memory = [bool(entry.overloads) for entry in entries]
     shipped = [precompiled.has_compiled(entry, shipped=True) for entry in entries]
@@ -160,6 +164,54 @@ def warm_up_engine(progress: Callable[[int, int], None] | None = None) -> None:
         step()
         if progress is not None:
             progress(done, len(steps))
+
+
+class EngineCalls:
+    """What went to the engine while a :func:`count_engine_calls` block ran: ``calls`` (one
+    per single pose, one per batch however large) and ``poses``."""
+
+    def __init__(self) -> None:
+        self.calls = 0
+        self.poses = 0
+        self._lock = threading.Lock()
+
+    def add(self, poses: int) -> None:
+        with self._lock:  # the node's margins and a batch's threads call from other threads
+            self.calls += 1
+            self.poses += poses
+
+
+#: The counters of the :func:`count_engine_calls` blocks now running (usually none).
+_COUNTERS: list[EngineCalls] = []
+
+
+def _count(poses: int) -> None:
+    for counter in _COUNTERS:
+        counter.add(poses)
+
+
+@contextlib.contextmanager
+def count_engine_calls() -> Iterator[EngineCalls]:
+    """Count every simulation that goes to the engine inside the block, from any module and
+    thread: every single pose (:func:`simulate_pose`) and every batch (:func:`run_flat`, the
+    one way to the engine for many poses: ``predict_batch``, maps, atlases, margins, seat
+    probabilities). For benches and tests; outside a block it costs one list check a call.
+
+    Examples
+    --------
+    >>> design = x_face(0.25, 1.0)
+    >>> with count_engine_calls() as calls:
+    ...     _ = simulate_pose(design, 0.1, 0.2, Physics(), path=False)
+    ...     _ = run_flat(design, np.zeros(5), np.full(5, 0.1), Physics())
+    >>> calls.calls, calls.poses
+    (2, 6)
+    """
+    counter = EngineCalls()
+    _COUNTERS.append(counter)
+    try:
+        yield counter
+    finally:
+        _COUNTERS.remove(counter)
 
 
 def engine_model(design: FaceDesign) -> _engine.Model:
@@ -228,6 +280,8 @@ def simulate_pose(
 ) -> Prediction:
     """One validated pose through the engine (see :func:`xface_core.predict`)."""
     check_pose(design, x0, theta0, y_start)
+    if _COUNTERS:
+        _count(1)
     w = design.width
     table = pair_table(design)
     m = table.model
@@ -440,6 +494,8 @@ def run_flat(
 ) -> npt.NDArray[np.void]:
     """The engine over flat arrays of x0 (units of D) and theta0: one ``RUN_DTYPE`` row each,
     started at the heights ``ys`` (units of D; default: just clear of the base per angle)."""
+    if _COUNTERS:
+        _count(len(xs))
     valid = (
         np.isfinite(xs) & np.isfinite(ts) & (np.abs(xs) <= MAX_OFFSET) & (np.abs(ts) <= 2 * np.pi)
     )

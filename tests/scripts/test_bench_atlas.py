@@ -1,0 +1,55 @@
+"""scripts/bench_atlas.py counts what the margins send to the engine (it once counted a name
+the margins no longer called, and read 0 without an error)."""
+
+from __future__ import annotations
+
+import importlib.util
+import math
+import sys
+from pathlib import Path
+from types import ModuleType
+
+import xface_core as xf
+from xface_core.atlas import build_atlas
+
+SCRIPT = Path(__file__).resolve().parents[2] / "scripts" / "bench_atlas.py"
+
+
+def _script() -> ModuleType:
+    spec = importlib.util.spec_from_file_location("bench_atlas", SCRIPT)
+    assert spec is not None
+    assert spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    sys.modules["bench_atlas"] = module
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_the_counter_sees_the_simulations_of_margins_from_the_atlas() -> None:
+    bench = _script()
+    design = xf.v_face(0.5, 1.0)
+    atlas = build_atlas(
+        design, lateral_step=1 / 32, angle_step=math.pi / 128, angle_range=math.pi / 2
+    )
+    outcome = xf.predict(design, 0.1, 0.2, path=False).outcome
+    counter = bench.SimulationCounter()
+    counter.install()
+    counter.take()
+    xf.margins_from_atlas(atlas, 0.1, 0.2, outcome)
+    poses, calls = counter.take()
+    assert calls > 0
+    assert poses >= calls
+    assert counter.take() == (0, 0)
+
+
+def test_the_counter_sees_the_simulations_of_the_exact_margin_search() -> None:
+    bench = _script()
+    design = xf.v_face(0.5, 1.0)
+    outcome = xf.predict(design, 0.1, 0.2, path=False).outcome
+    counter = bench.SimulationCounter()
+    counter.install()
+    counter.take()
+    xf.outcome_margins(design, 0.1, 0.2, outcome)
+    poses, calls = counter.take()
+    assert calls > 0
+    assert poses >= calls
