@@ -6,6 +6,7 @@ from __future__ import annotations
 import importlib.util
 import math
 import sys
+from collections.abc import Callable
 from pathlib import Path
 from types import ModuleType
 
@@ -25,31 +26,31 @@ def _script() -> ModuleType:
     return module
 
 
+def _counted(query: Callable[[], object]) -> tuple[int, int]:
+    """(poses, calls) that ``query`` sent to the engine, by the script's counter."""
+    counter = _script().SimulationCounter()
+    counter.install()
+    counter.take()
+    query()
+    counted: tuple[int, int] = counter.take()
+    assert counter.take() == (0, 0)
+    return counted
+
+
 def test_the_counter_sees_the_simulations_of_margins_from_the_atlas() -> None:
-    bench = _script()
     design = xf.v_face(0.5, 1.0)
     atlas = build_atlas(
         design, lateral_step=1 / 32, angle_step=math.pi / 128, angle_range=math.pi / 2
     )
     outcome = xf.predict(design, 0.1, 0.2, path=False).outcome
-    counter = bench.SimulationCounter()
-    counter.install()
-    counter.take()
-    xf.margins_from_atlas(atlas, 0.1, 0.2, outcome)
-    poses, calls = counter.take()
+    poses, calls = _counted(lambda: xf.margins_from_atlas(atlas, 0.1, 0.2, outcome))
     assert calls > 0
     assert poses >= calls
-    assert counter.take() == (0, 0)
 
 
 def test_the_counter_sees_the_simulations_of_the_exact_margin_search() -> None:
-    bench = _script()
     design = xf.v_face(0.5, 1.0)
     outcome = xf.predict(design, 0.1, 0.2, path=False).outcome
-    counter = bench.SimulationCounter()
-    counter.install()
-    counter.take()
-    xf.outcome_margins(design, 0.1, 0.2, outcome)
-    poses, calls = counter.take()
+    poses, calls = _counted(lambda: xf.outcome_margins(design, 0.1, 0.2, outcome))
     assert calls > 0
     assert poses >= calls
