@@ -27,7 +27,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 
 from xface_ros.config import NodeConfig
 from xface_ros.conversions import key_value
-from xface_ros.decision import StatsCounts, StatsSnapshot
+from xface_ros.stats import StatsCounts, StatsSnapshot
 
 __all__ = [
     "WARMING_UP_MESSAGE",

@@ -25,17 +25,11 @@ from xface_core.result import Prediction
 from xface_core.runner import engine_state, warm_up_engine
 from xface_ros.atlas_keeper import AtlasKeeper
 from xface_ros.config import NodeConfig
-from xface_ros.decision import (
-    PoseInput,
-    PredictorStats,
-    Rejected,
-    StatsSnapshot,
-    Verdict,
-    evaluate_streamed,
-)
+from xface_ros.decision import PoseInput, Rejected, Verdict, evaluate_streamed
 from xface_ros.latest import LatestSlot, Received
 from xface_ros.log import Logger
 from xface_ros.recorder import Recorder
+from xface_ros.stats import PredictorStats, StatsSnapshot
 from xface_ros.threadname import name_os_thread
 
 __all__ = ["COMPILING_LOG", "LOG_THROTTLE_S", "PredictionWorker", "warm_up_simulator"]

@@ -37,10 +37,7 @@ from xface_ros.decision import (
     InputRejected,
     PoseInput,
     Predicted,
-    PredictorStats,
     Rejected,
-    StatsCounts,
-    StatsWindow,
     answer,
     check_pose,
     combined_margin,
@@ -50,6 +47,7 @@ from xface_ros.decision import (
     evaluate_streamed,
     required_margin_m,
 )
+from xface_ros.stats import PredictorStats, StatsCounts, StatsWindow
 
 NOW_NS = 1_700_000_000_000_000_000
 WIDTH = 0.05  # the default width_m

@@ -11,13 +11,7 @@ from diagnostic_msgs.msg import DiagnosticStatus
 
 from xface_core.frames import yaw_to_quaternion
 from xface_ros.config import SPECS, NodeConfig, config_from_values
-from xface_ros.decision import (
-    PoseInput,
-    PredictorStats,
-    Rejected,
-    StatsSnapshot,
-    evaluate_streamed,
-)
+from xface_ros.decision import PoseInput, Rejected, evaluate_streamed
 from xface_ros.diagnostics import (
     WARMING_UP_MESSAGE,
     diagnostic_array,
@@ -25,6 +19,7 @@ from xface_ros.diagnostics import (
     predictor_level,
     predictor_status,
 )
+from xface_ros.stats import PredictorStats, StatsSnapshot
 from xface_ros.worker import PredictionWorker
 
 ROOT = Path(__file__).resolve().parents[2]
