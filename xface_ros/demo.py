@@ -43,7 +43,13 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import FrameType
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:  # imported at run time only after the environment is set (main)
+    from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+    from rclpy.executors import Executor
+
+    from xface_ros.pose_source import PoseSource
 
 __all__ = ["EVERY_KIND", "main", "wait_until_ready"]
 
@@ -207,19 +213,13 @@ def main(argv: list[str] | None = None) -> int:
     _isolate_ros(args.domain_id)
     # Imported here, after the environment is set (rclpy reads it when a context starts).
     import rclpy
-    from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
-    from nav_msgs.srv import GetPlan
     from rclpy.executors import SingleThreadedExecutor
-    from rclpy.parameter import Parameter
     from rclpy.signals import SignalHandlerOptions
 
-    from xface_ros.node import RESULT_QOS
-    from xface_ros.pose_source import DEMO_SWEEP, PoseSource
+    from xface_ros.pose_source import DEMO_SWEEP
 
     recording_available = importlib.util.find_spec("xface_core.viz.recording") is not None
-    record_path = None if args.no_record or not recording_available else args.record.resolve()
-    if record_path is not None and record_path.exists():
-        record_path.unlink()  # a stale file from an earlier run would look like this run's
+    record_path = _fresh_record_path(args, recording_available)
     print(
         f"xface demo: ROS_DOMAIN_ID={os.environ['ROS_DOMAIN_ID']}, discovery on localhost only; "
         f"up to {args.duration:g} s of poses once the node is ready (Ctrl-C stops earlier)",
@@ -234,15 +234,75 @@ def main(argv: list[str] | None = None) -> int:
     executor = SingleThreadedExecutor()
     answers = Answers()
     failures: list[str] = []
-    ready_at = [started]  # the clock of the printed answers starts when the node is ready
-    node_status: list[DiagnosticStatus] = []  # the node's latest predictor status
+    spin_thread: threading.Thread | None = None
+    try:
+        listener = _Listener(executor, answers, started)
+        print("xface demo: starting the node; it is ready once its simulator has loaded")
+        spin_thread = threading.Thread(target=executor.spin, daemon=True)
+        spin_thread.start()
+        problem = _wait_for_the_node(listener, node, args)
+        if problem is not None:
+            failures.append(problem)
+            print(f"xface demo: {problem}", file=sys.stderr, flush=True)
+            return 1
+        source = _run_the_sweep(listener, executor, node, args, started)
+        answers.planner = _ask_planner(listener.client, source.pose_of(*DEMO_SWEEP[1]))
+        if node.poll() is not None:
+            failures.append(f"the node exited early ({node.returncode})")
+    except KeyboardInterrupt:
+        print("\nxface demo: interrupted", flush=True)
+        failures.append("interrupted")
+    finally:
+        node_code, killed = _shut_down(node, executor, spin_thread)
+        failures += _summarise(answers, node_code, killed)
+        if record_path is not None:
+            failures += _check_recording(record_path, killed)
+        elif not recording_available:
+            print("xface demo: no recording (xface_core.viz.recording is not available)")
+        verdict = "OK" if not failures else "FAILED: " + "; ".join(failures)
+        print(f"xface demo: {verdict}", flush=True)
+    return 0 if not failures else 1
 
-    def show(status: DiagnosticStatus) -> None:
+
+def _fresh_record_path(args: argparse.Namespace, recording_available: bool) -> Path | None:
+    """Where the node records (None: no recording), with no file there yet."""
+    record_path = None if args.no_record or not recording_available else args.record.resolve()
+    if record_path is not None and record_path.exists():
+        record_path.unlink()  # a stale file from an earlier run would look like this run's
+    return record_path
+
+
+class _Listener:
+    """The demo's side of ROS: prints and counts the node's answers as they come, keeps its
+    latest predictor status from ``/diagnostics``, and is the planner service's client."""
+
+    def __init__(self, executor: Executor, answers: Answers, started: float) -> None:
+        import rclpy
+        from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+        from nav_msgs.srv import GetPlan
+
+        from xface_ros.node import RESULT_QOS
+
+        self.answers = answers
+        self.ready_at = started  # the clock of the printed answers starts when the node is ready
+        self.node_status: DiagnosticStatus | None = None  # the node's latest predictor status
+        self.node = rclpy.create_node("xface_demo_listener")
+        self.status_sub = self.node.create_subscription(
+            DiagnosticStatus, "prediction/status", self.show, RESULT_QOS
+        )
+        self.node.create_subscription(
+            DiagnosticArray, "/diagnostics", self.keep_node_status, RESULT_QOS
+        )
+        self.client = self.node.create_client(GetPlan, "predict")
+        executor.add_node(self.node)
+
+    def show(self, status: DiagnosticStatus) -> None:
+        """Count one answer and print it, one line."""
         values = {kv.key: kv.value for kv in status.values}
         outcome = values.get("outcome", "?")
         is_accepted = values.get("accepted") == "true"
-        t = time.monotonic() - ready_at[0]
-        answers.count(outcome, None if "input_error" in values else is_accepted)
+        t = time.monotonic() - self.ready_at
+        self.answers.count(outcome, None if "input_error" in values else is_accepted)
         if "input_error" in values:
             print(f"{t:6.1f}  {'':>9} {'':>8}    {'-':<12} {'invalid':<13} {status.message}")
             return
@@ -259,87 +319,95 @@ def main(argv: list[str] | None = None) -> int:
             flush=True,
         )
 
-    def keep_node_status(array: DiagnosticArray) -> None:
+    def keep_node_status(self, array: DiagnosticArray) -> None:
         for status in array.status:
             if status.name.endswith(": predictor"):
-                node_status[:] = [status]
+                self.node_status = status
 
-    spin_thread: threading.Thread | None = None
-    try:
-        listener = rclpy.create_node("xface_demo_listener")
-        status_sub = listener.create_subscription(
-            DiagnosticStatus, "prediction/status", show, RESULT_QOS
+    def node_message(self) -> str | None:
+        """The message of the node's latest predictor status; None before the first."""
+        status = self.node_status
+        return status.message if status is not None else None
+
+    def matched(self) -> bool:
+        """Whether the node's service, answers and pose subscription match ours."""
+        return bool(
+            self.client.service_is_ready()
+            and self.status_sub.get_publisher_count() > 0
+            and self.node.count_subscribers("relative_pose") > 0
         )
-        listener.create_subscription(DiagnosticArray, "/diagnostics", keep_node_status, RESULT_QOS)
-        client = listener.create_client(GetPlan, "predict")
-        executor.add_node(listener)
-        print("xface demo: starting the node; it is ready once its simulator has loaded")
-        spin_thread = threading.Thread(target=executor.spin, daemon=True)
-        spin_thread.start()
-        problem = wait_until_ready(
-            lambda: node_status[0].message if node_status else None,
-            lambda: node.poll() is None,
-            timeout_s=args.ready_timeout,
-            say=lambda line: print(line, flush=True),
-        )
-        if problem is None and not _wait_for(
-            lambda: (
-                client.service_is_ready()
-                and status_sub.get_publisher_count() > 0
-                and listener.count_subscribers("relative_pose") > 0
-            ),
-            MATCH_TIMEOUT_S,
-        ):
-            problem = (
-                f"the node's topics and service did not match ours within {MATCH_TIMEOUT_S:g} s"
-            )
-        if problem is not None:
-            failures.append(problem)
-            print(f"xface demo: {problem}", file=sys.stderr, flush=True)
-            return 1
-        source = PoseSource(
-            parameter_overrides=[
-                Parameter("rate_hz", value=args.rate),
-                *(Parameter(k, value=v) for k, v in _shared_parameters(args.params_file).items()),
-            ]
-        )
-        ready_at[0] = time.monotonic()
-        engine = {kv.key: kv.value for kv in node_status[0].values}.get("engine", "?")
-        print(
-            f"xface demo: node ready after {ready_at[0] - started:.1f} s (simulator: {engine})",
-            flush=True,
-        )
-        print(f"{'t (s)':>6}  {'x0 (m)':>9} {'theta0':>8}    {'outcome':<12} {'answer':<13} "
-              f"{'margin':>8} {'ms':>8}  why")  # fmt: skip
-        executor.add_node(source)
-        end = time.monotonic() + args.duration
-        while time.monotonic() < end and node.poll() is None:
-            # The whole sweep once, with every kind of answer (a pose lost before the node's
-            # subscription matched comes round again).
-            if answers.total() >= len(DEMO_SWEEP) and not answers.missing():
-                break
-            time.sleep(0.1)
-        executor.remove_node(source)
-        answers.planner = _ask_planner(client, source.pose_of(*DEMO_SWEEP[1]))
-        if node.poll() is not None:
-            failures.append(f"the node exited early ({node.returncode})")
-    except KeyboardInterrupt:
-        print("\nxface demo: interrupted", flush=True)
-        failures.append("interrupted")
-    finally:
-        node_code, killed = _stop(node)
-        executor.shutdown(timeout_sec=5.0)
-        if spin_thread is not None:  # stopped before the context it waits on goes away
-            spin_thread.join(timeout=5.0)
-        rclpy.try_shutdown()
-        failures += _summarise(answers, node_code, killed)
-        if record_path is not None:
-            failures += _check_recording(record_path, killed)
-        elif not recording_available:
-            print("xface demo: no recording (xface_core.viz.recording is not available)")
-        verdict = "OK" if not failures else "FAILED: " + "; ".join(failures)
-        print(f"xface demo: {verdict}", flush=True)
-    return 0 if not failures else 1
+
+
+def _wait_for_the_node(
+    listener: _Listener, node: subprocess.Popen[bytes], args: argparse.Namespace
+) -> str | None:
+    """Wait until the node is warmed up and its interfaces match ours; None then, else why
+    not."""
+    problem = wait_until_ready(
+        listener.node_message,
+        lambda: node.poll() is None,
+        timeout_s=args.ready_timeout,
+        say=lambda line: print(line, flush=True),
+    )
+    if problem is None and not _wait_for(listener.matched, MATCH_TIMEOUT_S):
+        problem = f"the node's topics and service did not match ours within {MATCH_TIMEOUT_S:g} s"
+    return problem
+
+
+def _run_the_sweep(
+    listener: _Listener,
+    executor: Executor,
+    node: subprocess.Popen[bytes],
+    args: argparse.Namespace,
+    started: float,
+) -> PoseSource:
+    """Start the clock and the pose source, and let it run until every kind of answer has
+    come or ``--duration`` has passed; the source (stopped), to ask the planner about."""
+    from rclpy.parameter import Parameter
+
+    from xface_ros.pose_source import DEMO_SWEEP, PoseSource
+
+    source = PoseSource(
+        parameter_overrides=[
+            Parameter("rate_hz", value=args.rate),
+            *(Parameter(k, value=v) for k, v in _shared_parameters(args.params_file).items()),
+        ]
+    )
+    listener.ready_at = time.monotonic()
+    status = listener.node_status
+    engine = {kv.key: kv.value for kv in status.values}.get("engine", "?") if status else "?"
+    print(
+        f"xface demo: node ready after {listener.ready_at - started:.1f} s (simulator: {engine})",
+        flush=True,
+    )
+    print(f"{'t (s)':>6}  {'x0 (m)':>9} {'theta0':>8}    {'outcome':<12} {'answer':<13} "
+          f"{'margin':>8} {'ms':>8}  why")  # fmt: skip
+    executor.add_node(source)
+    end = time.monotonic() + args.duration
+    answers = listener.answers
+    while time.monotonic() < end and node.poll() is None:
+        # The whole sweep once, with every kind of answer (a pose lost before the node's
+        # subscription matched comes round again).
+        if answers.total() >= len(DEMO_SWEEP) and not answers.missing():
+            break
+        time.sleep(0.1)
+    executor.remove_node(source)
+    return source
+
+
+def _shut_down(
+    node: subprocess.Popen[bytes], executor: Executor, spin_thread: threading.Thread | None
+) -> tuple[int, bool]:
+    """Stop the node (:func:`_stop`) and then the demo's side of ROS; the node's exit code,
+    and whether it had to be killed."""
+    import rclpy
+
+    node_code, killed = _stop(node)
+    executor.shutdown(timeout_sec=5.0)
+    if spin_thread is not None:  # stopped before the context it waits on goes away
+        spin_thread.join(timeout=5.0)
+    rclpy.try_shutdown()
+    return node_code, killed
 
 
 def _wait_for(condition: Callable[[], bool], timeout_s: float) -> bool:
