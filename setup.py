@@ -64,4 +64,8 @@ def _give_up(why: str, mode: str) -> None:
     print(f"{message}; it compiles on first use", file=sys.stderr, flush=True)
 
 
-setup(cmdclass={"build_py": BuildPyWithEngine})
+if __name__ == "__main__":
+    # No keyword arguments: colcon reads setup()'s arguments back as Python literals and
+    # fails on a command class; pyproject.toml names BuildPyWithEngine instead
+    # ([tool.setuptools.cmdclass], which imports this file as the module ``setup``).
+    setup()
