@@ -26,6 +26,7 @@ import importlib
 import importlib.metadata
 import json
 import math
+import multiprocessing
 import os
 import signal
 import sys
@@ -33,6 +34,7 @@ import threading
 from collections.abc import Iterator, Sequence
 from dataclasses import replace
 from functools import partial
+from pathlib import Path
 from types import FrameType
 from typing import Any
 
@@ -99,6 +101,14 @@ def _check_viz(args: argparse.Namespace) -> None:
 #: Maps with at least this many nodes per axis show a progress bar (a 201 x 201 map takes a
 #: few seconds on two cores).
 MAP_PROGRESS_GRID = 201
+
+
+def _chunked(grid: int) -> Progress | None:
+    """For a map of ``grid`` nodes per axis without a bar: a progress callback that draws
+    nothing, so that a large map runs in chunks (sweep.PROGRESS_CHUNK poses) and Ctrl-C ends
+    it between two, instead of after the whole map's engine calls (the rest of 20 s for
+    1001 x 1001 here); the map takes as long either way. None for a small map."""
+    return (lambda done, total: None) if grid >= MAP_PROGRESS_GRID else None
 
 
 def _check_workers(args: argparse.Namespace) -> None:
@@ -392,7 +402,7 @@ def _cmd_map(args: argparse.Namespace) -> int:
             theta_kind=args.theta_grid,
             physics=physics,
             coarse=args.coarse,
-            progress=None if bar is None else bar.step,
+            progress=_chunked(args.grid) if bar is None else bar.step,
         )
     if args.png or args.svg:
         from .viz.mapimage import save_map_picture
@@ -482,7 +492,13 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     b_args = _compare_b(args)
     sides = [(args, _physics(args), _design(args)), (b_args, _physics(b_args), _design(b_args))]
     maps = [
-        acceptance_map(design, grid=args.grid, theta_kind=args.theta_grid, physics=physics)
+        acceptance_map(
+            design,
+            grid=args.grid,
+            theta_kind=args.theta_grid,
+            physics=physics,
+            progress=_chunked(args.grid),
+        )
         for _, physics, design in sides
     ]
     diff = map_difference(maps[0], maps[1])
@@ -916,17 +932,23 @@ class _Interrupt:
 @contextlib.contextmanager
 def _sigint_raises() -> Iterator[_Interrupt]:
     """For the block, SIGINT raises KeyboardInterrupt in this process and is remembered: an
-    error that follows it (numba interrupted while compiling raises RuntimeError, a process
-    pool whose workers ended raises BrokenProcessPool) is the interrupt's doing, not a bug to
-    show. A process forked meanwhile inherits the handler: there (m_table's pool workers,
-    which would each print a traceback, and whose pool would finish their queued maps before
-    the command could end) it exits at once and quietly, and the main process reports. Left
-    as it is when SIGINT is ignored (a background job of a shell without job control) or
-    handled by someone else."""
+    error that follows it (numba interrupted while compiling raises RuntimeError) is the
+    interrupt's doing, not a bug to show. Left as it is when SIGINT is ignored (a background
+    job of a shell without job control) or handled by someone else.
+
+    A process forked meanwhile inherits the handler and there ignores the interrupt, which a
+    terminal sends to the whole group: m_table's pool workers would each print a traceback,
+    and one that exits breaks the pool, whose manager thread then races the futures being
+    cancelled (InvalidStateError, 1 Ctrl-C in 5). They finish the maps handed to them (a
+    second here) while the pool shuts down. An interrupt raised where Python swallows
+    exceptions (the at-fork callbacks while a pool starts: "Exception ignored in
+    _releaseLock", and the table ran on to its end, 1 Ctrl-C in 5 at that moment) is raised
+    again 50 ms later, by SIGALRM, until it lands where it propagates."""
     interrupt = _Interrupt()
     if (
         threading.current_thread() is not threading.main_thread()
         or signal.getsignal(signal.SIGINT) is not signal.default_int_handler
+        or signal.getsignal(signal.SIGALRM) != signal.SIG_DFL
     ):
         yield interrupt
         return
@@ -934,15 +956,47 @@ def _sigint_raises() -> Iterator[_Interrupt]:
 
     def on_sigint(signum: int, frame: FrameType | None) -> None:
         if os.getpid() != owner:
-            os._exit(EXIT_INTERRUPTED)
+            return  # a forked worker: its main process decides
         interrupt.seen = True
         raise KeyboardInterrupt
 
+    def on_unraisable(unraisable: sys.UnraisableHookArgs) -> None:
+        if issubclass(unraisable.exc_type, KeyboardInterrupt) and os.getpid() == owner:
+            signal.setitimer(signal.ITIMER_REAL, 0.05)  # not now: still in the callbacks
+            return
+        previous_hook(unraisable)
+
+    previous_hook = sys.unraisablehook
     signal.signal(signal.SIGINT, on_sigint)
+    signal.signal(signal.SIGALRM, on_sigint)
+    sys.unraisablehook = on_unraisable
     try:
         yield interrupt
     finally:
+        signal.setitimer(signal.ITIMER_REAL, 0.0)
+        signal.signal(signal.SIGALRM, signal.SIG_DFL)
         signal.signal(signal.SIGINT, signal.default_int_handler)
+        sys.unraisablehook = previous_hook
+
+
+def _child_pids() -> set[int]:
+    """This process's children: multiprocessing's and, on Linux, every one (a pool's worker
+    is forked before its pool records it)."""
+    pids = {child.pid for child in multiprocessing.active_children() if child.pid is not None}
+    for children in Path(f"/proc/{os.getpid()}/task").glob("*/children"):
+        with contextlib.suppress(OSError, ValueError):
+            pids.update(int(pid) for pid in children.read_text().split())
+    return pids
+
+
+def _end_children(before: set[int]) -> None:
+    """Kill the child processes the interrupted command started (not in ``before``). An
+    interrupt can land while a process pool starts its workers, before the pool can stop
+    them: they would wait for work, and Python's exit for them, for ever (2 Ctrl-Cs in 60
+    at that moment). A pool that shut down left none."""
+    for pid in _child_pids() - before:
+        with contextlib.suppress(ProcessLookupError):
+            os.kill(pid, signal.SIGKILL)
 
 
 #: Exit code when the reader of stdout went away: 128 + SIGPIPE, what a shell reports for a
@@ -956,6 +1010,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if _null_closed_streams():
         _say("xface: error: stdout is closed: nowhere to write the answer")
         return 2
+    children = _child_pids()
     with _sigint_raises() as interrupt:
         try:
             return _run(argv)
@@ -970,6 +1025,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         except Exception:
             if not interrupt.seen:
                 raise
+        _end_children(children)
         _say("xface: interrupted")
         return EXIT_INTERRUPTED
 
