@@ -5,6 +5,7 @@ stderr closed); ``--version`` says the version and whether the first simulation 
 
 from __future__ import annotations
 
+import contextlib
 import importlib.metadata
 import os
 import signal
@@ -56,10 +57,10 @@ def _start(*args: str) -> subprocess.Popen[str]:
     )
 
 
-def _wait_until(proc: subprocess.Popen[str], ready: Callable[[], bool]) -> None:
+def _wait_until(proc: subprocess.Popen[str], ready: Callable[[int], bool]) -> None:
     deadline = time.monotonic() + START_TIMEOUT_S
-    while not ready():
-        assert proc.poll() is None, proc.communicate()
+    while not ready(proc.pid):
+        assert proc.poll() is None, f"the command ended (exit {proc.returncode}) before that"
         assert time.monotonic() < deadline, "the command never got to work"
         time.sleep(0.05)
 
@@ -84,16 +85,23 @@ def _cpu_s(pid: int) -> float:
     return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
-def _ctrl_c(proc: subprocess.Popen[str]) -> tuple[int, str]:
-    """Ctrl-C to the command's process group; its exit code and stderr. One that does not end
-    is killed with its group, so a failure leaves nothing running."""
-    os.killpg(proc.pid, signal.SIGINT)
+def _ctrl_c(args: list[str], ready: Callable[[int], bool]) -> tuple[int, str]:
+    """``xface args`` (:func:`_start`) and, once ``ready(pid)``, Ctrl-C to its process group:
+    its exit code and stderr. A run that does not get there, or does not end with its group
+    (a worker left waiting keeps the pipes open), is killed with its group: a failure
+    leaves nothing running."""
+    proc = _start(*args)
+    ended = False
     try:
+        _wait_until(proc, ready)
+        os.killpg(proc.pid, signal.SIGINT)
         _, err = proc.communicate(timeout=120)
-    except subprocess.TimeoutExpired:
-        os.killpg(proc.pid, signal.SIGKILL)
-        proc.communicate()
-        raise
+        ended = True
+    finally:
+        if not ended:
+            with contextlib.suppress(ProcessLookupError):
+                os.killpg(proc.pid, signal.SIGKILL)
+            print(proc.communicate())  # shown with the failure
     return proc.returncode, err
 
 
@@ -104,17 +112,16 @@ def _assert_interrupted(code: int, err: str) -> None:
 
 
 def test_ctrl_c_in_a_table_is_one_line_and_exit_130() -> None:
-    proc = _start("table", "--face", "all", "--workers", "2")
-    _wait_until(proc, lambda: bool(_children(proc.pid)))  # its pool works on the maps
-    _assert_interrupted(*_ctrl_c(proc))
+    # As its pool's first worker appears: its pool starts, then works on the maps.
+    table = ["table", "--face", "all", "--workers", "2"]
+    _assert_interrupted(*_ctrl_c(table, lambda pid: bool(_children(pid))))
 
 
 def test_ctrl_c_in_a_large_map_is_one_line_and_exit_130() -> None:
     # A 1001 x 1001 map takes about 20 s of CPU here: 2 s in, it is busy with the map (or,
     # with a cold cache, compiling the engine, which must end the same way).
-    proc = _start("map", "--grid", "1001", "--json")
-    _wait_until(proc, lambda: _cpu_s(proc.pid) >= 2.0)
-    _assert_interrupted(*_ctrl_c(proc))
+    large_map = ["map", "--grid", "1001", "--json"]
+    _assert_interrupted(*_ctrl_c(large_map, lambda pid: _cpu_s(pid) >= 2.0))
 
 
 def _interrupting(real: Callable[..., Any]) -> Callable[..., Any]:
