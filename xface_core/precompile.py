@@ -25,6 +25,8 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
+from xface_core._engine.precompiled import MANIFEST_NAME, SHIPPED_DIR_ENV, write_manifest
+
 __all__ = ["build", "check", "main"]
 
 #: The build's own environment for a child process.
@@ -35,7 +37,7 @@ def _child_env(numba_cache: Path, shipped: Path, extra: dict[str, str]) -> dict[
     env = {key: value for key, value in os.environ.items() if not key.startswith("NUMBA_")}
     env.update(extra)
     env["NUMBA_CACHE_DIR"] = str(numba_cache)
-    env["XFACE_PRECOMPILED_DIR"] = str(shipped)
+    env[SHIPPED_DIR_ENV] = str(shipped)
     # The package this module belongs to, first: a build runs from its build folder.
     root = str(Path(__file__).resolve().parents[1])
     env["PYTHONPATH"] = os.pathsep.join([root, *filter(None, [env.get("PYTHONPATH")])])
@@ -65,14 +67,12 @@ def build(out_dir: Path) -> dict:  # type: ignore[type-arg]
         numba_cache = Path(scratch) / "numba"
         empty = Path(scratch) / "no-shipped-engine"  # no earlier build is reused
         report = _run_child("build", numba_cache, empty, _GENERIC_CPU)
-        for old in [*out_dir.glob("*.nbi"), *out_dir.glob("*.nbc"), out_dir / "manifest.json"]:
+        for old in [*out_dir.glob("*.nbi"), *out_dir.glob("*.nbc"), out_dir / MANIFEST_NAME]:
             old.unlink(missing_ok=True)
         folders = [p for p in numba_cache.iterdir() if p.is_dir()]
         files = [f for folder in folders for f in folder.iterdir() if f.suffix in (".nbi", ".nbc")]
         for f in files:
             shutil.copy2(f, out_dir / f.name)
-        from xface_core._engine.precompiled import write_manifest
-
         write_manifest(
             out_dir, magic=tuple(report["magic"]), compile_cpu_s=float(report["compile_cpu_s"])
         )

@@ -121,13 +121,13 @@ def engine_state() -> EngineState:
     in_memory = [bool(entry.overloads) for entry in entries]
     shipped = [precompiled.has_compiled(entry, shipped=True) for entry in entries]
     cached = [precompiled.has_compiled(entry, shipped=False) for entry in entries]
-    manifest = precompiled.read_manifest()
-    why = precompiled.manifest_problem(manifest, precompiled.host_triple())
+    build = precompiled.shipped_build()
+    why = build.problem
     if all(m or s for m, s in zip(in_memory, shipped, strict=True)):
         return EngineState(True, "precompiled", 0.0, why)
     if all(m or s or c for m, s, c in zip(in_memory, shipped, cached, strict=True)):
         return EngineState(True, "cached", 0.0, why)
-    return EngineState(False, "compiles", precompiled.compile_estimate_s(manifest), why)
+    return EngineState(False, "compiles", precompiled.compile_estimate_s(build.manifest), why)
 
 
 def _warm_up_steps() -> list[Callable[[], object]]:

@@ -23,11 +23,12 @@ site-packages the user cannot write still starts warm.
 
 from __future__ import annotations
 
+import functools
 import json
 import os
 import sys
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numba
 from numba.core.caching import FunctionCache, IndexDataCacheFile
@@ -39,6 +40,7 @@ __all__ = [
     "SHIPPED_DIR",
     "SHIPPED_DIR_ENV",
     "TYPICAL_COMPILE_CPU_S",
+    "ShippedBuild",
     "ShippedFunctionCache",
     "compile_estimate_s",
     "has_compiled",
@@ -46,6 +48,7 @@ __all__ = [
     "install",
     "manifest_problem",
     "read_manifest",
+    "shipped_build",
     "write_manifest",
 ]
 
@@ -129,6 +132,27 @@ def manifest_problem(manifest: dict[str, Any] | None, triple: str) -> str | None
     return None
 
 
+class ShippedBuild(NamedTuple):
+    """What the build in a folder is, and whether it can serve this process."""
+
+    manifest: dict[str, Any] | None
+    problem: str | None
+    """Why it cannot serve (:func:`manifest_problem`), or None."""
+    magic: tuple[Any, ...] | None
+    """The codegen tuple its kernels are keyed by when it can serve, else None."""
+
+
+@functools.cache
+def shipped_build(directory: Path = SHIPPED_DIR) -> ShippedBuild:
+    """The build in ``directory`` checked against this process, once per process (the files
+    and the engine's sources do not change while it runs): every kernel's cache and
+    ``runner.engine_state`` ask this one answer instead of each hashing the sources again."""
+    manifest = read_manifest(directory)
+    problem = manifest_problem(manifest, host_triple())
+    magic = tuple(manifest["magic"]) if manifest is not None and problem is None else None
+    return ShippedBuild(manifest, problem, magic)
+
+
 class ShippedFunctionCache(FunctionCache):
     """numba's cache of one kernel, which on a miss loads the shipped build's copy.
 
@@ -146,23 +170,15 @@ class ShippedFunctionCache(FunctionCache):
             source_stamp=self._impl.locator.get_source_stamp(),
         )
         self._shipped_dir = shipped_dir
-        self._shipped_magic: tuple[Any, ...] | None = None
-        self._shipped_checked = False
 
-    def _magic(self, codegen: Any) -> tuple[Any, ...] | None:
-        """The shipped build's codegen tuple when it can serve this process, else None
-        (checked once per kernel: the manifest does not change while we run)."""
-        if not self._shipped_checked:
-            self._shipped_checked = True
-            manifest = read_manifest(self._shipped_dir)
-            if manifest_problem(manifest, codegen.magic_tuple()[0]) is None:
-                assert manifest is not None
-                self._shipped_magic = tuple(manifest["magic"])
-        return self._shipped_magic
+    @property
+    def shipped_magic(self) -> tuple[Any, ...] | None:
+        """The shipped build's codegen tuple when it can serve this process, else None."""
+        return shipped_build(self._shipped_dir).magic
 
     def shipped_key(self, sig: Any, codegen: Any) -> tuple[Any, ...] | None:
         """The key of ``sig`` in the shipped index, or None when the build cannot serve."""
-        magic = self._magic(codegen)
+        magic = self.shipped_magic
         if magic is None:
             return None
         sig_, _, code_hashes = self._index_key(sig, codegen)
@@ -197,11 +213,10 @@ def has_compiled(dispatcher: Any, *, shipped: bool) -> bool:
     cache = getattr(dispatcher, "_cache", None)
     if not isinstance(cache, ShippedFunctionCache):
         return False
-    codegen = dispatcher.targetctx.codegen()
     if shipped:
-        magic = cache._magic(codegen)
+        magic = cache.shipped_magic
         index = cache._shipped._load_index() if magic is not None else {}
     else:
-        magic = codegen.magic_tuple()
+        magic = dispatcher.targetctx.codegen().magic_tuple()
         index = cache._cache_file._load_index()
     return any(key[1] == magic for key in index)
