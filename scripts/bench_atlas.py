@@ -30,9 +30,9 @@ import numpy as np
 import numpy.typing as npt
 
 import xface_core as xf
-import xface_core.atlas_margins as atlas_margins_module
+import xface_core.atlas.lookup as atlas_margins_module
 import xface_core.runner as runner_module
-from xface_core.atlas import build_atlas
+from xface_core.atlas.build import build_atlas
 
 DESIGNS = (("X", 0.25, 2.0), ("V", 0.5, 1.0), ("S", 1.0, 1.0))
 

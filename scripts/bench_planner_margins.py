@@ -24,7 +24,7 @@ import time
 import numpy as np
 
 import xface_core as xf
-from xface_core.atlas import build_atlas
+from xface_core.atlas.build import build_atlas
 
 
 def _timed_margins(atlas: xf.AcceptanceAtlas, x0: float, theta0: float) -> float:

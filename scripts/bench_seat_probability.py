@@ -27,7 +27,7 @@ import numpy as np
 from check_atlas import near_seated_poses, random_covariance  # this folder
 
 import xface_core as xf
-from xface_core import probability
+from xface_core.atlas import probability
 
 DESIGNS = (("X", 0.25, 2.0), ("V", 0.5, 1.0), ("S", 1.0, 1.0), ("X", 0.25, 1.0))
 REFERENCE = (1024, 10)

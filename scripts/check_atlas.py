@@ -26,7 +26,7 @@ import numpy as np
 import numpy.typing as npt
 
 import xface_core as xf
-from xface_core.margins import ANGLE_RESOLUTION, LATERAL_RESOLUTION
+from xface_core.atlas.margins import ANGLE_RESOLUTION, LATERAL_RESOLUTION
 
 #: The designs of the margins check: X, V and S, several H/D and r_p.
 MARGIN_DESIGNS = (

@@ -75,7 +75,7 @@ def _run(args: argparse.Namespace, argv: list[str]) -> int:
 
     import xface_core as xf
     import xface_core._engine as engine
-    from xface_core.grids import theta_grid, x0_grid
+    from xface_core.maps.grids import theta_grid, x0_grid
 
     makers = {"X": xf.x_face, "V": xf.v_face, "S": xf.s_face}
     design = makers[args.face](args.h_over_d, args.r_p)

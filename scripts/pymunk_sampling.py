@@ -20,9 +20,9 @@ from collections import defaultdict
 
 import numpy as np
 
-from xface_core.bench import BENCH_DESIGNS
+from xface_core.cli.bench import BENCH_DESIGNS
 from xface_core.geometry import make_face
-from xface_core.grids import theta_grid, x0_grid
+from xface_core.maps.grids import theta_grid, x0_grid
 
 
 def sample(face: str, h_over_d: float, r_p: float, grid: int) -> dict[str, object]:

@@ -6,7 +6,7 @@ Evidence for docs/bounds.md. Run from the repository root (about a minute on one
     .venv/bin/python scripts/search_s_rule.py --quick    # skips the calibration fits
     .venv/bin/python scripts/search_s_rule.py --wide     # + the wide lever fit (~15 min)
 
-Table III (V-Face) is reproduced in all 121 cells by a "lever rule" (xface_core.bounds):
+Table III (V-Face) is reproduced in all 121 cells by a "lever rule" (xface_core.maps.bounds):
 angle cut |theta0| < pi/2 - atan(2h), tip band |x0 + l sin(theta0)| < 1/2 with lever
 l = (r_p + h)/2, reach |x0| < r_p + h/2, on the paper's asymmetric theta grid. This script asks
 whether any rule of that kind reproduces Table IV, in five parts:
@@ -37,8 +37,8 @@ import numpy.typing as npt
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from xface_core.grids import PAPER_H_OVER_D, theta_grid, x0_grid
-from xface_core.paper import PAPER_MEAN_RATIO_XS, paper_table
+from xface_core.maps.grids import PAPER_H_OVER_D, theta_grid, x0_grid
+from xface_core.maps.paper import PAPER_MEAN_RATIO_XS, paper_table
 
 FloatArray = npt.NDArray[np.float64]
 TrigFn = Callable[[FloatArray], FloatArray]

@@ -25,8 +25,8 @@ from pathlib import Path
 from distributed import Client, LocalCluster
 
 import xface_core as xf
-from xface_core.designspace import DesignSpace
-from xface_core.study import read_study, run_study
+from xface_core.study.run import read_study, run_study
+from xface_core.study.space import DesignSpace
 
 
 def _run(workers: int, space: DesignSpace, grid: int, out: Path) -> float:

@@ -68,7 +68,8 @@ BACKGROUND_STOP_S = 60.0
 ROS_COMMAND = re.compile(r"xface-predictor|xface_ros|make demo|ros_stress|\bros2\b")
 #: The packages: imported from this checkout, not copied (numba caches beside the sources).
 NOT_COPIED = {"xface_core", "xface_ros", ".venv", ".git"}
-README_MAX_LINES = 251
+#: A front page, not a manual: the rest is in docs/ (251 lines plus the changes section).
+README_MAX_LINES = 265
 
 _FENCE = re.compile(r"^(\s*)```(\S*)\s*$")
 _DIRECTIVE = re.compile(r"^\s*<!--\s*docs-test:\s*(.*?)\s*-->\s*$")

@@ -18,22 +18,22 @@ Examples
 
 from __future__ import annotations
 
-from .approach import ApproachSuggestion, suggest_approach
-from .atlas import AcceptanceAtlas, build_atlas
-from .atlas_margins import margins_from_atlas
+from .atlas.approach import ApproachSuggestion, suggest_approach
+from .atlas.build import AcceptanceAtlas, build_atlas
+from .atlas.lookup import margins_from_atlas
+from .atlas.margins import outcome_margins
+from .atlas.probability import seat_probability
 from .codes import Outcome, Reason
 from .errors import FaceFileError, GeometryError, InputError, XfaceError, XfaceValueError
 from .facefile import load_face, save_face
 from .geometry import FaceDesign, custom_face, make_face, s_face, v_face, x_face
-from .grids import PAPER_H_OVER_D, PAPER_R_P, theta_grid, x0_grid
-from .margins import outcome_margins
+from .maps.acceptance import AcceptanceMap, MTable, acceptance_map, m_table
+from .maps.grids import PAPER_H_OVER_D, PAPER_R_P, theta_grid, x0_grid
+from .maps.regions import largest_centred_rectangle, largest_rectangle
 from .physics import DEFAULT_SETTINGS, Physics, SolverSettings
 from .predict import predict
-from .probability import seat_probability
-from .regions import largest_centred_rectangle, largest_rectangle
 from .result import AlignmentPath, Counters, Margins, Phase, Prediction
 from .runner import BatchResult, predict_batch
-from .sweep import AcceptanceMap, MTable, acceptance_map, m_table
 
 __all__ = [
     "DEFAULT_SETTINGS",

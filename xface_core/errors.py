@@ -26,7 +26,7 @@ class XfaceError(Exception):
 
 class Cancelled(XfaceError):
     """A long computation stopped between two of its batches because its caller's ``cancel``
-    callback said so (:func:`~xface_core.atlas.build_atlas`)."""
+    callback said so (:func:`~xface_core.atlas.build.build_atlas`)."""
 
 
 class XfaceValueError(XfaceError, ValueError):

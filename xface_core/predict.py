@@ -9,11 +9,11 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-from .atlas import AcceptanceAtlas
-from .atlas_margins import margins_from_atlas
+from .atlas.build import AcceptanceAtlas
+from .atlas.lookup import margins_from_atlas
+from .atlas.margins import outcome_margins
 from .codes import REASON_TEXT
 from .geometry import FaceDesign
-from .margins import outcome_margins
 from .physics import DEFAULT_SETTINGS, MAX_FRICTION, Physics, SolverSettings
 from .result import Prediction
 from .runner import (
@@ -89,13 +89,13 @@ def predict(
         Numerical settings of the integrator.
     atlas : AcceptanceAtlas, optional
         With ``margins``: read the margins from this atlas (built for this design and
-        physics) and confirm them exactly (:func:`~xface_core.atlas_margins.margins_from_atlas`:
+        physics) and confirm them exactly (:func:`~xface_core.atlas.lookup.margins_from_atlas`:
         the same values as the exact search, with a fraction of its simulations). The pose
         itself is always simulated.
     margin_threads : int, optional
         With ``margins`` and ``atlas``: threads that share each batch of confirmation
         simulations (default: one per core; see
-        :func:`~xface_core.atlas_margins.margins_from_atlas`).
+        :func:`~xface_core.atlas.lookup.margins_from_atlas`).
 
     Returns
     -------

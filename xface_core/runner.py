@@ -1,7 +1,7 @@
 """The typed bridge to the compiled engine: one pose with its path, or many without.
 
 :func:`simulate_pose` runs one pose and returns a :class:`Prediction` (no margins: those
-build on this module, in :mod:`xface_core.margins`); :func:`predict_batch` runs many poses of
+build on this module, in :mod:`xface_core.atlas.margins`); :func:`predict_batch` runs many poses of
 one design. Lengths are in the design's unit (``design.width`` is D), angles in radians; the
 engine works in units of D, so outcomes do not depend on the unit.
 """
@@ -41,9 +41,9 @@ __all__ = [
     "engine_model",
     "engine_options",
     "engine_state",
+    "outcomes_at",
     "predict_batch",
     "run_flat",
-    "run_flat_lengths",
     "simulate_pose",
     "start_height",
     "start_heights",
@@ -445,20 +445,9 @@ def predict_batch(
     phys = Physics.resolve(
         physics, damping_ratio=damping_ratio, friction=friction, settings=settings
     )
-    if y_start is None:
-        xb, tb = np.broadcast_arrays(
-            np.asarray(x0, dtype=np.float64), np.asarray(theta0, dtype=np.float64)
-        )
-        ys = None
-    else:
-        xb, tb, yb = np.broadcast_arrays(
-            np.asarray(x0, dtype=np.float64),
-            np.asarray(theta0, dtype=np.float64),
-            np.asarray(y_start, dtype=np.float64),
-        )
-        ys = yb.ravel()
-    runs = run_flat_lengths(design, xb.ravel(), tb.ravel(), phys, threads, ys)
-    shape = xb.shape
+    shape, xs, ts, ys = _flat_poses(x0, theta0, y_start)
+    w = design.width
+    runs = run_flat(design, xs / w, ts, phys, threads, None if ys is None else ys / w)
     return BatchResult(
         outcome=runs["outcome"].astype(np.int8).reshape(shape),
         phi_b=runs["phi_b"].reshape(shape),
@@ -468,20 +457,44 @@ def predict_batch(
     )
 
 
-def run_flat_lengths(
+def outcomes_at(
     design: FaceDesign,
-    x0: FloatArray,
-    theta0: FloatArray,
+    x0: npt.ArrayLike,
+    theta0: npt.ArrayLike,
     physics: Physics,
+    *,
     threads: int | None = None,
-    y_start: FloatArray | None = None,
-) -> npt.NDArray[np.void]:
-    """:func:`run_flat` for flat arrays of poses in the design's length unit (``x0`` and
-    ``y_start``; None: the default start): the conversion to units of D of
-    :func:`predict_batch`, for callers that need neither its broadcasting nor its result
-    arrays (about 25 us a call, which a margin search's many small calls would pay)."""
-    ys = None if y_start is None else y_start / design.width
-    return run_flat(design, x0 / design.width, theta0, physics, threads, ys)
+    y_start: npt.ArrayLike | None = None,
+) -> npt.NDArray[np.int8]:
+    """Outcome codes of poses given in units of D: the one way the questions asked around a
+    pose, of a grid or of many designs ask the engine (no path, no final state).
+
+    ``x0`` (D) and ``theta0`` (rad), and ``y_start`` (D; None: just clear of the base for each
+    angle), broadcast like numpy; the result has their shape. ``threads`` as for
+    :func:`predict_batch`. Non-finite or absurd entries give ``INVALID_INPUT``. Unlike
+    :func:`predict_batch` nothing is scaled by the width: a pose in D is simulated at exactly
+    that pose, and a call costs no result arrays (about 25 us less, as much as a few
+    simulations of a miss).
+
+    Examples
+    --------
+    >>> from xface_core import Physics, v_face
+    >>> codes = outcomes_at(v_face(0.5, 1.0, width=2.0), [0.0, 0.1], 0.1, Physics())
+    >>> [Outcome(c).name for c in codes]
+    ['SEATED', 'SEATED']
+    """
+    shape, xs, ts, ys = _flat_poses(x0, theta0, y_start)
+    return run_flat(design, xs, ts, physics, threads, ys)["outcome"].astype(np.int8).reshape(shape)
+
+
+def _flat_poses(
+    x0: npt.ArrayLike, theta0: npt.ArrayLike, y_start: npt.ArrayLike | None
+) -> tuple[tuple[int, ...], FloatArray, FloatArray, FloatArray | None]:
+    """The broadcast shape of the poses and their flat float arrays (None: no start height)."""
+    arrays = [np.asarray(a, dtype=np.float64) for a in (x0, theta0, y_start) if a is not None]
+    shape = np.broadcast_shapes(*(a.shape for a in arrays))
+    flat = [np.broadcast_to(a, shape).ravel() for a in arrays]
+    return shape, flat[0], flat[1], flat[2] if len(flat) == 3 else None
 
 
 def run_flat(
@@ -496,6 +509,9 @@ def run_flat(
     started at the heights ``ys`` (units of D; default: just clear of the base per angle)."""
     if _COUNTERS:
         _count(len(xs))
+    # The one argument type the engine is compiled for (and shipped with): C-contiguous and
+    # writeable (numba types a read-only array, e.g. a broadcast view, as another type).
+    xs, ts = (np.require(a, np.float64, ["C_CONTIGUOUS", "WRITEABLE"]) for a in (xs, ts))
     valid = (
         np.isfinite(xs) & np.isfinite(ts) & (np.abs(xs) <= MAX_OFFSET) & (np.abs(ts) <= 2 * np.pi)
     )
@@ -507,8 +523,6 @@ def run_flat(
         ys = np.where(valid, ys, 0.0)
     model = engine_model(design)
     opts = _engine.make_options(physics)
-    # The one argument type the engine is compiled for (and shipped with): C-contiguous.
-    xs, ts, ys = (np.ascontiguousarray(a, dtype=np.float64) for a in (xs, ts, ys))
     n_threads = min(thread_count(threads), max(1, len(xs) // MIN_POSES_PER_THREAD))
     if n_threads == 1:
         return _engine.simulate_many(model, opts, xs, ts, ys, valid)

@@ -1,7 +1,7 @@
 """The node's acceptance atlas: built in the background for the current design and physics.
 
 Margins from an atlas cost a few exact simulations instead of hundreds
-(:mod:`xface_core.atlas`, docs/atlas.md). Building one takes seconds, so the node builds it on
+(:mod:`xface_core.atlas.build`, docs/atlas.md). Building one takes seconds, so the node builds it on
 a thread of its own at start and again after a design or physics parameter changes; until it
 is ready (or when a build failed) predictions search their margins exactly, as without it,
 and ``/diagnostics`` says which (``atlas``: ``building``, ``ready``, ``failed``, ``off``).
@@ -14,7 +14,7 @@ import threading
 from collections.abc import Callable, Hashable
 from functools import partial
 
-from xface_core.atlas import AcceptanceAtlas, build_atlas
+from xface_core.atlas.build import AcceptanceAtlas, build_atlas
 from xface_core.errors import Cancelled
 from xface_core.geometry import FaceDesign
 from xface_core.physics import Physics

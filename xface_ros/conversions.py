@@ -30,12 +30,12 @@ from nav_msgs.msg import Path
 from std_msgs.msg import ColorRGBA, Header
 from visualization_msgs.msg import Marker, MarkerArray
 
+from xface_core.codes import Outcome
 from xface_core.frames import (
     PlanarPose,
     path_poses,
     yaw_to_quaternion,
 )
-from xface_core.outcome import Outcome
 from xface_core.result import Prediction
 from xface_ros.decision import PoseInput, Predicted, Rejected, Verdict, answer
 

@@ -22,8 +22,10 @@ import time
 from dataclasses import dataclass, replace
 from typing import ClassVar
 
-from xface_core.approach import suggest_approach
-from xface_core.atlas import AcceptanceAtlas
+from xface_core.atlas.approach import suggest_approach
+from xface_core.atlas.build import AcceptanceAtlas
+from xface_core.atlas.probability import seat_probability
+from xface_core.codes import Outcome
 from xface_core.errors import XfaceError
 from xface_core.frames import (
     AbsurdDistanceError,
@@ -38,9 +40,7 @@ from xface_core.frames import (
     planar_yaw,
     relative_pose_to_start,
 )
-from xface_core.outcome import Outcome
 from xface_core.predict import predict
-from xface_core.probability import seat_probability
 from xface_core.result import Margins, Prediction
 from xface_ros.config import NodeConfig, normalise_frame_id
 

@@ -15,7 +15,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
-from xface_core.outcome import Outcome
+from xface_core.codes import Outcome
 from xface_ros.decision import Rejected, Verdict
 
 __all__ = ["PredictorStats", "StatsCounts", "StatsSnapshot", "StatsWindow"]

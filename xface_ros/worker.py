@@ -19,7 +19,7 @@ import threading
 import time
 from collections.abc import Callable
 
-from xface_core.atlas import AcceptanceAtlas
+from xface_core.atlas.build import AcceptanceAtlas
 from xface_core.predict import predict
 from xface_core.result import Prediction
 from xface_core.runner import engine_state, warm_up_engine

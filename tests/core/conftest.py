@@ -7,7 +7,7 @@ import math
 import pytest
 
 import xface_core as xf
-from xface_core.atlas import build_atlas
+from xface_core.atlas.build import build_atlas
 
 
 @pytest.fixture(scope="session")

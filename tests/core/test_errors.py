@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from xface_core.errors import XfaceValueError, is_integer_in
-from xface_core.seatprob import PoseNoise
+from xface_core.study.noise import PoseNoise
 
 
 @pytest.mark.parametrize("value", [1, 7, np.int64(3), np.uint8(5)])

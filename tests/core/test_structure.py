@@ -97,8 +97,8 @@ def test_no_import_cycles_in_the_core() -> None:
 
 
 def test_margins_build_on_predictions_not_the_other_way_round() -> None:
-    assert "xface_core.predict" not in GRAPH["xface_core.margins"]
-    assert "xface_core.margins" in GRAPH["xface_core.predict"]
+    assert "xface_core.predict" not in GRAPH["xface_core.atlas.margins"]
+    assert "xface_core.atlas.margins" in GRAPH["xface_core.predict"]
 
 
 def test_the_engine_depends_only_on_codes_and_physics() -> None:
@@ -130,3 +130,74 @@ def test_simulate_reads_as_a_list_of_stages() -> None:
     assert [c for c in calls if c in stages] == stages
     body_lines = fn.body[-1].end_lineno - fn.body[1].lineno + 1  # without the docstring
     assert body_lines <= 15
+
+
+#: Most modules directly in ``xface_core/`` besides its packages (``__init__.py`` not counted):
+#: the ground, the bridge to the engine and the front door; every question has its package.
+MAX_TOP_MODULES = 15
+
+#: The core's layers, top-down: a module imports modules of its own group, of the ground, or
+#: of a layer below its own. A group is a top module or a subpackage.
+LAYERS: tuple[frozenset[str], ...] = (
+    frozenset({"cli", "precompile"}),  # the commands
+    frozenset({"__init__"}),  # the package's front: what ``import xface_core`` gives
+    frozenset({"study", "crosscheck", "viz"}),  # many designs; presentation and the check
+    frozenset({"maps"}),  # one design's grid
+    frozenset({"predict"}),  # one pose: the front door, margins included
+    frozenset({"atlas"}),  # the questions around one pose
+    frozenset({"runner"}),  # the typed bridge to the engine
+    frozenset({"result"}),
+    frozenset({"contact"}),
+    frozenset({"_engine"}),
+)
+#: The ground: codes, errors and the values every layer shares (acyclic among themselves,
+#: which the cycle test checks).
+GROUND = frozenset({"codes", "errors", "physics", "geometry", "facefile", "frames", "data"})
+
+
+def _group(module: str) -> str:
+    parts = module.split(".")
+    return parts[1] if len(parts) > 1 else "__init__"
+
+
+def _rank(group: str) -> int:
+    if group in GROUND:
+        return -1
+    for depth, layer in enumerate(LAYERS):
+        if group in layer:
+            return len(LAYERS) - depth
+    raise AssertionError(f"{group} is in no layer of test_structure.LAYERS")
+
+
+def test_the_top_of_the_core_holds_at_most_fifteen_modules() -> None:
+    top = [p.name for p in CORE.glob("*.py") if p.name != "__init__.py"]
+    assert len(top) <= MAX_TOP_MODULES, sorted(top)
+
+
+def test_every_group_of_the_core_has_a_layer() -> None:
+    for module in MODULES:
+        _rank(_group(module))
+
+
+def _upward(module: str, deps: set[str]) -> list[str]:
+    """The imports of ``module`` that go to a layer at or above its own."""
+    group = _group(module)
+    return sorted(
+        dep
+        for dep in deps
+        if _group(dep) != group
+        and _rank(_group(dep)) >= _rank(group)
+        and not (group in GROUND and _group(dep) in GROUND)
+    )
+
+
+@pytest.mark.parametrize("module", sorted(GRAPH))
+def test_imports_read_top_down(module: str) -> None:
+    assert _upward(module, GRAPH[module]) == [], f"{module} imports a layer at or above its own"
+
+
+def test_the_layer_rule_sees_an_upward_import() -> None:
+    deps = {"xface_core.atlas.build", "xface_core.codes", "xface_core.runner"}
+    assert _upward("xface_core.runner", deps) == ["xface_core.atlas.build"]
+    assert _upward("xface_core.atlas.margins", {"xface_core.predict"}) == ["xface_core.predict"]
+    assert _upward("xface_core.geometry", {"xface_core.errors"}) == []

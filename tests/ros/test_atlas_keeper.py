@@ -158,7 +158,7 @@ def test_with_a_cache_dir_a_restart_loads_the_atlas_instead_of_building_it(
 
 def test_the_node_atlas_knows_every_grid_line_flip(config: NodeConfig) -> None:
     # A planner's first question near a boundary is interpolated, not searched (docs/atlas.md).
-    from xface_core.atlas_flips import bisect_every_flip, boundary_segments
+    from xface_core.atlas.flips import bisect_every_flip, boundary_segments
 
     _, atlas = _ready(config)
     assert len(atlas.flips) == len(boundary_segments(atlas.outcomes)) > 0
@@ -253,7 +253,7 @@ def test_a_covariance_that_is_not_one_is_rejected(config: NodeConfig, cov: Any) 
 
 
 def test_a_restart_reads_every_flip_from_the_cache(config: NodeConfig, tmp_path: Any) -> None:
-    from xface_core.atlas_flips import boundary_segments
+    from xface_core.atlas.flips import boundary_segments
 
     cached = replace(config, atlas_cache_dir=str(tmp_path / "atlases"))
     _, built = _ready(cached)

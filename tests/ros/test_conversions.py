@@ -12,6 +12,7 @@ from geometry_msgs.msg import PoseStamped
 from std_msgs.msg import Header
 from visualization_msgs.msg import Marker
 
+from xface_core.codes import Outcome
 from xface_core.frames import (
     DockStart,
     PlanarPose,
@@ -21,7 +22,6 @@ from xface_core.frames import (
     relative_pose_to_start,
     yaw_to_quaternion,
 )
-from xface_core.outcome import Outcome
 from xface_core.predict import predict
 from xface_core.result import Margins, Prediction
 from xface_ros.conversions import (

@@ -19,6 +19,7 @@ from typing import Any
 
 import pytest
 
+from xface_core.codes import Outcome
 from xface_core.frames import (
     DockStart,
     PlanarPose,
@@ -27,7 +28,6 @@ from xface_core.frames import (
     relative_pose_to_start,
     yaw_to_quaternion,
 )
-from xface_core.outcome import Outcome
 from xface_core.predict import predict
 from xface_core.result import Counters, Margins, Prediction
 from xface_ros.config import SPECS, NodeConfig, config_from_values
@@ -476,8 +476,8 @@ def test_every_test_here_and_of_the_worker_runs_without_ros() -> None:
 def test_streamed_margins_run_on_the_configured_threads(
     config: NodeConfig, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    from xface_core import atlas_margins
-    from xface_core.atlas import build_atlas
+    from xface_core.atlas import lookup as atlas_margins
+    from xface_core.atlas.build import build_atlas
 
     asked: list[int] = []
     real = atlas_margins._outcomes_split

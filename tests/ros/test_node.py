@@ -17,6 +17,8 @@ from geometry_msgs.msg import PoseStamped
 from nav_msgs.msg import Path as PathMsg
 from visualization_msgs.msg import Marker
 
+from xface_core.atlas.margins import ANGLE_RESOLUTION, LATERAL_RESOLUTION
+from xface_core.codes import Outcome
 from xface_core.frames import (
     PlanarPose,
     path_poses,
@@ -25,8 +27,6 @@ from xface_core.frames import (
     wrap_angle,
 )
 from xface_core.geometry import make_face
-from xface_core.margins import ANGLE_RESOLUTION, LATERAL_RESOLUTION
-from xface_core.outcome import Outcome
 from xface_core.predict import predict
 from xface_core.result import Prediction
 from xface_ros.conversions import path_indices

@@ -79,7 +79,7 @@ def test_a_pose_with_covariance_is_answered_with_its_seat_probability(launch: An
 def test_the_cached_atlas_holds_every_grid_line_flip(launch: Any, tmp_path: Any) -> None:
     # The node builds its atlas with every flip bisected, so a planner's first question near
     # a boundary is interpolated, and a restart reads them all from the cache.
-    from xface_core.atlas_flips import boundary_segments
+    from xface_core.atlas.flips import boundary_segments
 
     cache = tmp_path / "atlases"
     running = launch(atlas_cache_dir=str(cache))

@@ -14,9 +14,9 @@ from typing import Any
 import pytest
 from diagnostic_msgs.msg import DiagnosticStatus
 
+from xface_core.codes import Outcome
 from xface_core.frames import wrap_angle
 from xface_core.geometry import make_face
-from xface_core.outcome import Outcome
 from xface_core.predict import predict
 
 pytestmark = pytest.mark.ros

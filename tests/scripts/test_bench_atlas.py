@@ -11,7 +11,7 @@ from pathlib import Path
 from types import ModuleType
 
 import xface_core as xf
-from xface_core.atlas import build_atlas
+from xface_core.atlas.build import build_atlas
 
 SCRIPT = Path(__file__).resolve().parents[2] / "scripts" / "bench_atlas.py"
 

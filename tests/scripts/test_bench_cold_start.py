@@ -180,7 +180,7 @@ def test_build_messages_keep_the_engines_lines_and_the_hidden_error() -> None:
   copying xface_ros/py.typed -> build/lib/xface_ros
   xface: precompiling the engine (about 1-2 minutes of CPU)
   Traceback (most recent call last):
-    File "/tmp/src/xface_core/approach.py", line 32, in <module>
+    File "/tmp/src/xface_core/atlas/approach.py", line 32, in <module>
       import numpy as np
   ModuleNotFoundError: No module named 'numpy'
   xface: warning: could not precompile the engine; it compiles on first use

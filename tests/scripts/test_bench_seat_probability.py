@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 
 import xface_core as xf
-from xface_core import probability
-from xface_core.atlas import build_atlas
+from xface_core.atlas import probability
+from xface_core.atlas.build import build_atlas
 
 ROOT = Path(__file__).resolve().parents[2]
 

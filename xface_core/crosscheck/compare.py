@@ -35,10 +35,10 @@ import numpy.typing as npt
 
 from xface_core.codes import Outcome
 from xface_core.geometry import FaceDesign
-from xface_core.grids import theta_grid, x0_grid
+from xface_core.maps.grids import theta_grid, x0_grid
 from xface_core.physics import Physics
 from xface_core.predict import predict
-from xface_core.runner import predict_batch
+from xface_core.runner import outcomes_at
 
 from .scene import (
     DEFAULT_ENGINE,
@@ -482,8 +482,7 @@ def compare_with_engine(
     start = time.monotonic()
     x0, theta0 = engine.x0, engine.theta0
     ambiguous = engine.ambiguous
-    ours = predict_batch(design, x0 * design.width, theta0, physics=phys).outcome
-    ours = np.asarray(ours, dtype=np.int8)
+    ours = outcomes_at(design, x0, theta0, phys)
     codes = _codes(engine.sharp)
     differ = ~ambiguous & (_seated(ours) != _seated(codes))
     disagreements = tuple(

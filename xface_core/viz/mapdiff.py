@@ -12,8 +12,8 @@ from enum import IntEnum
 import numpy as np
 import numpy.typing as npt
 
+from xface_core.codes import Outcome
 from xface_core.errors import XfaceValueError
-from xface_core.outcome import Outcome
 from xface_core.viz.mapgrid import AcceptanceMapLike, checked_grid
 
 __all__ = ["MapDifference", "SeatedIn", "map_difference"]
@@ -69,7 +69,7 @@ def map_difference(a: AcceptanceMapLike, b: AcceptanceMapLike) -> MapDifference:
     Examples
     --------
     >>> from xface_core import v_face, x_face
-    >>> from xface_core.sweep import acceptance_map
+    >>> from xface_core.maps.acceptance import acceptance_map
     >>> d = map_difference(
     ...     acceptance_map(x_face(0.25, 1.0), grid=11), acceptance_map(v_face(0.25, 1.0), grid=11)
     ... )

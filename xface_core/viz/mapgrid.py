@@ -1,13 +1,13 @@
 """Acceptance maps as data to draw: one fixed colour per outcome, the checks of a map's shape
 and values, its guaranteed region as grid indices, and its cells as an RGB array.
 
-An acceptance map holds one :class:`~xface_core.outcome.Outcome` per initial pose on a grid:
+An acceptance map holds one :class:`~xface_core.codes.Outcome` per initial pose on a grid:
 rows are lateral offsets ``x0`` (increasing), columns initial angles ``theta0`` (increasing).
 In every picture **theta0 runs along the horizontal axis (left to right) and x0 up the
 vertical axis (bottom to top)**, so the first grid row is the picture's bottom row.
 
 Any object with the attributes of :class:`AcceptanceMapLike` can be drawn; the map type of
-:mod:`xface_core.sweep` is one. numpy only: the figures (:mod:`xface_core.viz.mapimage`,
+:mod:`xface_core.maps.acceptance` is one. numpy only: the figures (:mod:`xface_core.viz.mapimage`,
 matplotlib) and the rerun recordings (:mod:`xface_core.viz.recording`) both start here.
 """
 
@@ -19,9 +19,9 @@ from typing import Any, NamedTuple, Protocol
 import numpy as np
 import numpy.typing as npt
 
+from xface_core.codes import Outcome
 from xface_core.errors import XfaceValueError
 from xface_core.geometry import FaceDesign
-from xface_core.outcome import Outcome
 
 __all__ = [
     "GUARANTEED_OUTLINE",
@@ -63,7 +63,7 @@ class AcceptanceMapLike(Protocol):
     theta0 : (m,) float array
         Initial angles of the columns, strictly increasing (rad).
     outcomes : (n, m) int array
-        :class:`~xface_core.outcome.Outcome` value per grid pose.
+        :class:`~xface_core.codes.Outcome` value per grid pose.
     M : int
         Number of SEATED cells.
     design : FaceDesign

@@ -21,9 +21,9 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Patch, Rectangle
 from matplotlib.ticker import MaxNLocator
 
+from xface_core.codes import Outcome
 from xface_core.errors import XfaceValueError
 from xface_core.geometry import FaceDesign
-from xface_core.outcome import Outcome
 from xface_core.viz.figures import (
     PictureFormat,
     PixelBox,

@@ -80,9 +80,9 @@ import rerun as rr
 import rerun.blueprint as rrb
 import shapely
 
+from xface_core.codes import Outcome
 from xface_core.errors import XfaceValueError
 from xface_core.geometry import FaceDesign
-from xface_core.outcome import Outcome
 from xface_core.result import Phase, Prediction
 
 from .mapimage import AcceptanceMapLike, checked_grid, guaranteed_cells, outcome_colors

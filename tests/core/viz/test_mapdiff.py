@@ -9,9 +9,9 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
+from xface_core.codes import Outcome
 from xface_core.errors import XfaceValueError
 from xface_core.geometry import x_face
-from xface_core.outcome import Outcome
 from xface_core.viz.comparefig import save_comparison
 from xface_core.viz.mapdiff import SeatedIn, map_difference
 

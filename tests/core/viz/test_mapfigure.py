@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 from xface_core.cli import main
+from xface_core.codes import Outcome
 from xface_core.errors import XfaceValueError
 from xface_core.geometry import x_face
-from xface_core.outcome import Outcome
 from xface_core.viz.mapimage import map_figure, save_map_picture
 
 SEATED, BAD, REACH = int(Outcome.SEATED), int(Outcome.BAD_MATE), int(Outcome.OUT_OF_REACH)

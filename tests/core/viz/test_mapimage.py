@@ -14,10 +14,10 @@ from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 from PIL import Image
 
+from xface_core.codes import Outcome
 from xface_core.errors import XfaceValueError
 from xface_core.geometry import s_face, v_face
-from xface_core.outcome import Outcome
-from xface_core.sweep import AcceptanceMap, acceptance_map
+from xface_core.maps.acceptance import AcceptanceMap, acceptance_map
 from xface_core.viz.mapimage import (
     GUARANTEED_OUTLINE,
     guaranteed_cells,

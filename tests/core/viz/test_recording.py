@@ -21,12 +21,12 @@ import pytest
 import rerun as rr
 from rerun.chunk import RrdReader
 
+from xface_core.codes import Outcome
 from xface_core.errors import XfaceValueError
 from xface_core.geometry import FaceDesign, v_face, x_face
-from xface_core.outcome import Outcome
+from xface_core.maps.acceptance import AcceptanceMap, acceptance_map
 from xface_core.predict import predict
 from xface_core.result import AlignmentPath, Counters, Phase, Prediction
-from xface_core.sweep import AcceptanceMap, acceptance_map
 from xface_core.viz.mapimage import outcome_colors
 from xface_core.viz.recording import (
     default_blueprint,

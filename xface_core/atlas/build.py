@@ -1,0 +1,575 @@
+"""The acceptance atlas: one design's outcomes on a fine (x0, theta0) grid, built once.
+
+A robot asks many questions *around* the pose it holds (how far is the next flip, how likely
+is a seat under this covariance); each would cost dozens to thousands of simulations. The
+atlas answers the "where are the boundaries" part once per design and physics, so those
+questions need only a few exact simulations at the boundaries they touch. It never replaces
+the simulation of a queried pose itself.
+
+Grid: ``x0 = i * lateral_step`` (units of D) over ``|x0| <= lateral_range`` (default: the mated
+distance L plus two steps, since beyond L every pose is OUT_OF_REACH) and
+``theta0 = k * angle_step`` (rad) over ``|theta0| <= angle_range`` (default 3 pi/2: the
+paper's pi/2 plus the margin search's pi), built from
+integers so mirrored nodes are exact negatives. Every pose starts at the default height just
+clear of the base for its angle (:func:`~xface_core.runner.start_heights`), as
+:func:`~xface_core.predict` does without ``y_start``; queries with an explicit ``y_start`` do
+not use the atlas.
+
+Build: the nodes at every ``coarse_stride``-th grid line are simulated; then, halving the
+stride down to 1, only the blocks whose four corners disagree, and their eight neighbours,
+get their midpoints simulated; the nodes of the other blocks take the common outcome of
+their corners. A region of another outcome that fits inside one coarse block (and its
+neighbours) without touching a simulated node is missed: see ``docs/atlas.md``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import threading
+import time
+import zipfile
+from collections.abc import Callable
+from dataclasses import dataclass, field, fields, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from xface_core.codes import Outcome
+from xface_core.errors import XfaceValueError, is_integer_in
+from xface_core.geometry import FaceDesign
+from xface_core.physics import Physics, SolverSettings
+from xface_core.runner import START_CLEARANCE, outcomes_at
+
+from .flips import bisect_every_flip, check_cancel
+
+__all__ = [
+    "ATLAS_FORMAT",
+    "DEFAULT_ANGLE_STEP",
+    "DEFAULT_COARSE_STRIDE",
+    "DEFAULT_LATERAL_STEP",
+    "MAX_ATLAS_NODES",
+    "AcceptanceAtlas",
+    "atlas_key",
+    "build_atlas",
+]
+
+FloatArray = npt.NDArray[np.float64]
+Int8Array = npt.NDArray[np.int8]
+
+#: Bumped whenever the stored arrays or their meaning change (part of the cache key).
+ATLAS_FORMAT = 1
+#: Default node spacing: D/64 laterally and pi/256 in angle, finer than the exact margin
+#: search's scan (D/40, pi/160), so the atlas sees every feature that search sees.
+DEFAULT_LATERAL_STEP = 1.0 / 64.0
+DEFAULT_ANGLE_STEP = math.pi / 256.0
+#: Default half-width in angle: pi/2 (the paper's range) plus the exact margin search's pi, so
+#: the angle search from any query in [-pi/2, pi/2] stays on the atlas. The outcome is uniform
+#: over most of the extra range, so it costs little: the refinement only follows boundaries.
+DEFAULT_ANGLE_RANGE = 1.5 * math.pi
+#: Nodes between the simulated lines of the first pass (a power of two).
+DEFAULT_COARSE_STRIDE = 8
+#: Largest grid accepted (int8 outcomes: 4 MB; about 5 minutes to build on a loaded
+#: 2-core machine if every node had to be simulated).
+MAX_ATLAS_NODES = 4_000_000
+
+
+class FlipStore:
+    """Flip positions on an atlas's grid lines, found lazily and kept (thread-safe).
+
+    Key ``(axis, line, node)``: the flip on grid line ``line`` (axis 0: the column
+    ``theta0[line]``, searched along x0; axis 1: the row ``x0[line]``, searched along theta0)
+    between nodes ``node`` and ``node + 1``. Value ``(lo, hi)``: a bracket of it in the
+    line's coordinate (D or rad), ``lo`` with the outcome of node ``node``, ``hi`` with
+    another one. Shared by every copy of the atlas (:meth:`AcceptanceAtlas.bound_to`): the
+    flips are in units of D, the same for any width.
+    """
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._known: dict[tuple[int, int, int], tuple[float, float]] = {}
+        self._asked: set[tuple[int, int, int]] = set()
+
+    def worth_finding(self, keys: list[tuple[int, int, int]]) -> bool:
+        """True when every key is known or was asked for before (then bisecting the unknown
+        ones pays: a second query came by); records the ask. A one-off query is cheaper
+        with a search along its own line than with the bisection of two grid lines."""
+        with self._lock:
+            again = all(k in self._known or k in self._asked for k in keys)
+            self._asked.update(keys)
+            return again
+
+    def get(self, key: tuple[int, int, int]) -> tuple[float, float] | None:
+        with self._lock:
+            return self._known.get(key)
+
+    def put(self, key: tuple[int, int, int], bracket: tuple[float, float]) -> None:
+        with self._lock:
+            self._known[key] = bracket
+
+    def __len__(self) -> int:
+        with self._lock:
+            return len(self._known)
+
+    def arrays(self) -> tuple[npt.NDArray[np.int64], FloatArray]:
+        """The known flips as arrays: keys (n, 3) and brackets (n, 2), for saving."""
+        with self._lock:
+            items = sorted(self._known.items())
+        keys = np.array([k for k, _ in items], dtype=np.int64).reshape(-1, 3)
+        brackets = np.array([b for _, b in items], dtype=np.float64).reshape(-1, 2)
+        return keys, brackets
+
+    def add_arrays(
+        self, keys: npt.ArrayLike, brackets: npt.ArrayLike, shape: tuple[int, int]
+    ) -> None:
+        """Know the flips of :meth:`arrays` again (a saved atlas loaded). Raises
+        ``ValueError`` for arrays that cannot be an atlas's flips on a grid of ``shape``
+        (nodes along x0, along theta0): a foreign or damaged file is rebuilt, not trusted."""
+        k = np.asarray(keys)
+        b = np.asarray(brackets, dtype=np.float64)
+        if k.ndim != 2 or k.shape[1] != 3 or b.shape != (k.shape[0], 2):
+            raise ValueError("flip arrays of the wrong shape")
+        if k.shape[0] == 0:
+            return
+        if not np.issubdtype(k.dtype, np.integer):
+            raise ValueError("flip keys must be integers")
+        axis, line, node = k[:, 0], k[:, 1], k[:, 2]
+        # axis 0: line indexes theta0, node indexes x0; axis 1 the other way round.
+        n_line = np.where(axis == 0, shape[1], shape[0])
+        n_node = np.where(axis == 0, shape[0], shape[1])
+        ok = (
+            np.isin(axis, (0, 1))
+            & (line >= 0) & (line < n_line) & (node >= 0) & (node < n_node - 1)
+            & np.all(np.isfinite(b), axis=1) & (b[:, 0] < b[:, 1])
+        )  # fmt: skip
+        if not bool(np.all(ok)):
+            raise ValueError("flip arrays that do not fit the grid")
+        with self._lock:
+            for key, bracket in zip(k.tolist(), b.tolist(), strict=True):
+                self._known[(key[0], key[1], key[2])] = (bracket[0], bracket[1])
+
+    def __getstate__(self) -> dict[str, object]:
+        # An atlas goes to process-pool workers by pickle: the flips go with it, a lock cannot.
+        with self._lock:
+            return {"known": dict(self._known), "asked": set(self._asked)}
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self._lock = threading.Lock()
+        self._known = state["known"]
+        self._asked = state["asked"]
+
+
+@dataclass(frozen=True, eq=False)
+class AcceptanceAtlas:
+    """Outcomes of one design and physics on a regular (x0, theta0) grid.
+
+    Attributes
+    ----------
+    design : FaceDesign
+        The design it was built for (any width: the atlas is in units of D).
+    physics : Physics
+    key : str
+        Hex digest of the geometry, physics, settings, grid and start height: equal keys
+        mean interchangeable atlases (it names the cache file).
+    x0 : (n,) float
+        Lateral offsets of the nodes, in units of D.
+    theta0 : (m,) float
+        Angles of the nodes (rad).
+    outcomes : (n, m) int8
+        :class:`~xface_core.codes.Outcome` value per node (simulated or filled).
+    simulated : (n, m) bool
+        True where the node was simulated (False: filled from agreeing block corners).
+    start_clearance : float
+        Every node started this far (D) above the lowest clear height for its angle: the
+        default start of :func:`~xface_core.predict`.
+    build_seconds : float
+        Wall time of the build, with the flips' bisection when built with ``every_flip``
+        (0 when loaded from the cache).
+    flips : FlipStore
+        Flips on the grid lines bisected so far (:mod:`xface_core.atlas.flips`): all of
+        them when built with ``every_flip``, else they grow as queries touch boundaries;
+        saved with the atlas (:meth:`save`).
+    """
+
+    design: FaceDesign
+    physics: Physics
+    key: str
+    x0: FloatArray
+    theta0: FloatArray
+    outcomes: Int8Array
+    simulated: npt.NDArray[np.bool_]
+    start_clearance: float = START_CLEARANCE
+    build_seconds: float = 0.0
+    flips: FlipStore = field(default_factory=FlipStore, repr=False)
+
+    def __post_init__(self) -> None:
+        # Read-only arrays: one atlas is shared by every query (and thread) that uses it.
+        for array in (self.x0, self.theta0, self.outcomes, self.simulated):
+            array.flags.writeable = False
+
+    @property
+    def lateral_step(self) -> float:
+        """Node spacing along x0 (D)."""
+        return float(self.x0[1] - self.x0[0])
+
+    @property
+    def angle_step(self) -> float:
+        """Node spacing along theta0 (rad)."""
+        return float(self.theta0[1] - self.theta0[0])
+
+    @property
+    def simulations(self) -> int:
+        """Nodes simulated to build the atlas."""
+        return int(np.count_nonzero(self.simulated))
+
+    def covers(self, x0_d: npt.ArrayLike, theta0: npt.ArrayLike) -> npt.NDArray[np.bool_]:
+        """True where a pose (x0 in D, theta0 in rad) lies inside the grid."""
+        x, t = np.asarray(x0_d, dtype=np.float64), np.asarray(theta0, dtype=np.float64)
+        return np.asarray(
+            (x >= self.x0[0]) & (x <= self.x0[-1]) & (t >= self.theta0[0]) & (t <= self.theta0[-1])
+        )
+
+    def cell_index(
+        self, x0_d: npt.ArrayLike, theta0: npt.ArrayLike
+    ) -> tuple[npt.NDArray[np.intp], npt.NDArray[np.intp]]:
+        """Lower-left node (i, k) of the grid cell holding each pose (clipped to the grid)."""
+        x, t = np.asarray(x0_d, dtype=np.float64), np.asarray(theta0, dtype=np.float64)
+        i = np.floor((np.nan_to_num(x) - self.x0[0]) / self.lateral_step).astype(np.intp)
+        k = np.floor((np.nan_to_num(t) - self.theta0[0]) / self.angle_step).astype(np.intp)
+        return np.clip(i, 0, self.x0.size - 2), np.clip(k, 0, self.theta0.size - 2)
+
+    def seated_in_cell(self, x0_d: npt.ArrayLike, theta0: npt.ArrayLike) -> npt.NDArray[np.int8]:
+        """Per pose: 1 when its cell's four corners all seat, 0 when none does, -1 when they
+        disagree or the pose lies outside the grid (an exact simulation must decide)."""
+        i, k = self.cell_index(x0_d, theta0)
+        s = self.outcomes == Outcome.SEATED
+        corners = s[i, k].astype(np.int8) + s[i + 1, k] + s[i, k + 1] + s[i + 1, k + 1]
+        out = np.where(corners == 4, 1, np.where(corners == 0, 0, -1)).astype(np.int8)
+        out[~self.covers(x0_d, theta0)] = -1
+        return out
+
+    def bound_to(self, design: FaceDesign, physics: Physics) -> AcceptanceAtlas:
+        """This atlas for ``design`` (same geometry, any width: the atlas is in units of D, and
+        the returned one reads queries in ``design``'s length unit) and ``physics``.
+
+        Raises :class:`XfaceValueError` unless it was built for this geometry and physics,
+        so it cannot silently answer for another connector.
+        """
+        if design.cache_key != self.design.cache_key:
+            raise XfaceValueError("the atlas was built for another design geometry")
+        if physics != self.physics:
+            raise XfaceValueError(f"the atlas was built for {self.physics!r}, not for {physics!r}")
+        return self if design is self.design else replace(self, design=design)
+
+    def save(self, path: str | Path) -> Path:
+        """Write the atlas to an ``.npz`` file (``build_atlas(..., cache_dir=...)`` reads it
+        back for the same design, physics and grid; the design itself is not stored), with
+        the grid-line flips found so far: saved again later, a restart also keeps those."""
+        flip_keys, flip_brackets = self.flips.arrays()
+        target = Path(path)
+        target.parent.mkdir(parents=True, exist_ok=True)
+        tmp = target.with_name(target.name + ".tmp.npz")
+        np.savez_compressed(
+            tmp,
+            key=np.array(self.key),
+            x0=self.x0,
+            theta0=self.theta0,
+            outcomes=self.outcomes,
+            simulated=self.simulated,
+            start_clearance=np.array(self.start_clearance),
+            flip_keys=flip_keys,
+            flip_brackets=flip_brackets,
+        )
+        # Rename last: a reader never sees half a file, even with two builders racing.
+        tmp.replace(target)
+        return target
+
+
+def _settings_tuple(settings: SolverSettings) -> tuple[object, ...]:
+    return tuple(getattr(settings, f.name) for f in fields(settings))
+
+
+def atlas_key(
+    design: FaceDesign,
+    physics: Physics,
+    *,
+    lateral_step: float,
+    angle_step: float,
+    lateral_range: float,
+    angle_range: float,
+    coarse_stride: int,
+) -> str:
+    """Digest of everything an atlas's outcomes depend on (geometry in D, physics, solver
+    settings, grid, refinement stride, start height and the format): the cache file name."""
+    parts = (
+        ATLAS_FORMAT,
+        design.cache_key,
+        physics.damping_ratio,
+        physics.friction,
+        _settings_tuple(physics.settings),
+        lateral_step,
+        angle_step,
+        lateral_range,
+        angle_range,
+        coarse_stride,
+        START_CLEARANCE,
+    )
+    return hashlib.sha256(repr(parts).encode()).hexdigest()[:24]
+
+
+def cache_path(cache_dir: str | Path, key: str) -> Path:
+    """The file of the atlas with ``key`` (:func:`atlas_key`) in ``cache_dir`` (``~``
+    expanded): where :func:`build_atlas` reads and writes it."""
+    return Path(cache_dir).expanduser() / f"atlas-{key}.npz"
+
+
+def _half_nodes(extent: float, step: float, stride: int) -> int:
+    """Steps from the centre to the edge: covers ``extent`` and is a multiple of ``stride``."""
+    return stride * math.ceil(extent / step / stride - 1e-9)
+
+
+def _check_positive(name: str, value: float) -> float:
+    v = float(value)
+    if not math.isfinite(v) or v <= 0.0:
+        raise XfaceValueError(f"{name} must be finite and > 0, got {value!r}")
+    return v
+
+
+def _grid_size(
+    x_range: float, dx: float, t_range: float, dt: float, coarse_stride: int, max_nodes: int
+) -> tuple[int, int]:
+    """Nodes either side of zero along x0 and theta0 (:func:`build_atlas`'s grid), after
+    checking the stride and the grid's size."""
+    if not is_integer_in(coarse_stride, 1) or coarse_stride & (coarse_stride - 1):
+        raise XfaceValueError(f"coarse_stride must be a power of two >= 1, got {coarse_stride!r}")
+    nx = _half_nodes(x_range, dx, coarse_stride)
+    nt = _half_nodes(t_range, dt, coarse_stride)
+    if nt * dt > 2.0 * math.pi:  # the engine takes |theta0| <= 2 pi
+        raise XfaceValueError("angle_range rounded up to the coarse stride exceeds 2 pi")
+    nodes = (2 * nx + 1) * (2 * nt + 1)
+    if nodes > max_nodes:
+        raise XfaceValueError(
+            f"an atlas of {2 * nx + 1} x {2 * nt + 1} = {nodes:,} nodes exceeds max_nodes="
+            f"{max_nodes:,} (about {nodes * 1e-4:.0f} s if every node were simulated at "
+            "100 us each); raise the steps or narrow the ranges"
+        )
+    return nx, nt
+
+
+def build_atlas(
+    design: FaceDesign,
+    *,
+    physics: Physics | None = None,
+    lateral_step: float = DEFAULT_LATERAL_STEP,
+    angle_step: float = DEFAULT_ANGLE_STEP,
+    lateral_range: float | None = None,
+    angle_range: float = DEFAULT_ANGLE_RANGE,
+    coarse_stride: int = DEFAULT_COARSE_STRIDE,
+    max_nodes: int = MAX_ATLAS_NODES,
+    cache_dir: str | Path | None = None,
+    threads: int | None = None,
+    every_flip: bool = False,
+    cancel: Callable[[], bool] | None = None,
+) -> AcceptanceAtlas:
+    """Build (or load from ``cache_dir``) the acceptance atlas of a design and physics.
+
+    Parameters
+    ----------
+    design : FaceDesign
+    physics : Physics, optional
+        Default ``Physics()``.
+    lateral_step : float
+        Node spacing along x0, in units of D (default D/64).
+    angle_step : float
+        Node spacing along theta0, rad (default pi/256).
+    lateral_range : float, optional
+        Half-width of the grid along x0, in D (default: L + 2 steps; beyond L no seat exists).
+    angle_range : float
+        Half-width of the grid along theta0, rad (default 3 pi/2; at most 2 pi).
+    coarse_stride : int
+        Grid lines between the simulated lines of the first pass (a power of two >= 1;
+        1 simulates every node).
+    max_nodes : int
+        Size guard: a grid with more nodes raises :class:`XfaceValueError` with the estimate.
+    cache_dir : path, optional
+        Directory of ``atlas-<key>.npz`` files (``~`` expanded): an atlas with the same key
+        is loaded instead of built, and a built one is saved there. Nothing is cached unless
+        a directory is given.
+    threads : int, optional
+        Threads of the batch simulations (default: one per core).
+    every_flip : bool
+        Also bisect the flip of every boundary segment of the grid lines
+        (:func:`~xface_core.atlas.flips.bisect_every_flip`: 0.26-0.41 s more on the default
+        grids, 3-5 times the build), so that the margins of a query near a boundary no one
+        asked about before are interpolated and confirmed with eight simulations instead of
+        searched (docs/atlas.md). A cached atlas that lacks some is completed and saved
+        again. Default False: the flips are then bisected lazily, as queries come by (seat
+        probabilities never need them).
+    cancel : callable, optional
+        Asked before each batch of simulations (the build's longest is a fraction of a
+        second); when it returns True the build stops with :class:`~.errors.Cancelled` and
+        nothing is saved. For a caller that may stop wanting the atlas (the ROS node at
+        shutdown or after a design change).
+
+    Examples
+    --------
+    >>> from xface_core import v_face
+    >>> a = build_atlas(v_face(0.5, 1.0), lateral_step=0.125, angle_step=0.2, angle_range=1.6)
+    >>> a.outcomes.shape
+    (49, 17)
+    """
+    phys = Physics() if physics is None else physics
+    if not isinstance(phys, Physics):
+        raise XfaceValueError(f"physics must be a Physics, got {phys!r}")
+    dx = _check_positive("lateral_step", lateral_step)
+    dt = _check_positive("angle_step", angle_step)
+    x_range = (
+        design.mated_distance + 2.0 * dx
+        if lateral_range is None
+        else _check_positive("lateral_range", lateral_range)
+    )
+    t_range = _check_positive("angle_range", angle_range)
+    if t_range > 2.0 * math.pi:
+        raise XfaceValueError(f"angle_range must be <= 2 pi, got {angle_range!r}")
+    nx, nt = _grid_size(x_range, dx, t_range, dt, coarse_stride, max_nodes)
+    key = atlas_key(
+        design,
+        phys,
+        lateral_step=dx,
+        angle_step=dt,
+        lateral_range=x_range,
+        angle_range=t_range,
+        coarse_stride=coarse_stride,
+    )
+    path = None if cache_dir is None else cache_path(cache_dir, key)
+    if path is not None and path.exists():
+        try:
+            loaded = _load(path, design, phys, key)
+        except (OSError, ValueError, KeyError, zipfile.BadZipFile):
+            pass  # unreadable (truncated by a crash, or foreign): rebuilt and overwritten
+        else:
+            if every_flip and bisect_every_flip(loaded, threads=threads, cancel=cancel):
+                loaded.save(path)
+            return loaded
+
+    # Integer multiples: mirrored nodes are exact negatives (the mirror fill relies on it).
+    x_d = np.arange(-nx, nx + 1).astype(np.float64) * dx
+    th = np.arange(-nt, nt + 1).astype(np.float64) * dt
+    t0 = time.perf_counter()
+    outcomes, simulated = _refine(design, x_d, th, coarse_stride, phys, threads, cancel)
+    atlas = AcceptanceAtlas(
+        design=design,
+        physics=phys,
+        key=key,
+        x0=x_d,
+        theta0=th,
+        outcomes=outcomes,
+        simulated=simulated,
+        build_seconds=time.perf_counter() - t0,
+    )
+    if every_flip:
+        bisect_every_flip(atlas, threads=threads, cancel=cancel)
+        atlas = replace(atlas, build_seconds=time.perf_counter() - t0)  # the flips as well
+    if path is not None:
+        atlas.save(path)
+    return atlas
+
+
+def _load(path: Path, design: FaceDesign, physics: Physics, key: str) -> AcceptanceAtlas:
+    """Read a cached atlas; its stored key must be the one computed for this request."""
+    with np.load(path, allow_pickle=False) as data:
+        stored = str(data["key"])
+        if stored != key:
+            raise XfaceValueError(f"{path}: stored key {stored} is not the expected {key}")
+        atlas = AcceptanceAtlas(
+            design=design,
+            physics=physics,
+            key=stored,
+            x0=np.asarray(data["x0"], dtype=np.float64),
+            theta0=np.asarray(data["theta0"], dtype=np.float64),
+            outcomes=np.asarray(data["outcomes"], dtype=np.int8),
+            simulated=np.asarray(data["simulated"], dtype=np.bool_),
+            start_clearance=float(data["start_clearance"]),
+        )
+        if "flip_keys" in data:  # files written before the flips were saved have none
+            atlas.flips.add_arrays(data["flip_keys"], data["flip_brackets"], atlas.outcomes.shape)
+        return atlas
+
+
+def _simulate(
+    design: FaceDesign,
+    x_d: FloatArray,
+    th: FloatArray,
+    todo: npt.NDArray[np.bool_],
+    out: Int8Array,
+    physics: Physics,
+    threads: int | None,
+) -> None:
+    """Simulate the nodes marked in ``todo`` into ``out`` (mirrored when the design allows)."""
+    if design.mirror_symmetric:
+        # outcome(x0, theta0) == outcome(-x0, -theta0) exactly for such designs, and the
+        # grid is built from integers, so node (i, k) mirrors onto (n-1-i, m-1-k).
+        todo = todo | todo[::-1, ::-1]
+        flat = np.flatnonzero(todo.ravel())
+        half = flat[flat <= (todo.size - 1) // 2]
+    else:
+        half = np.flatnonzero(todo.ravel())
+    i, k = np.unravel_index(half, todo.shape)
+    codes = outcomes_at(design, x_d[i], th[k], physics, threads=threads)
+    out[i, k] = codes
+    if design.mirror_symmetric:
+        out[todo.shape[0] - 1 - i, todo.shape[1] - 1 - k] = codes
+
+
+def _refine(
+    design: FaceDesign,
+    x_d: FloatArray,
+    th: FloatArray,
+    stride: int,
+    physics: Physics,
+    threads: int | None,
+    cancel: Callable[[], bool] | None = None,
+) -> tuple[Int8Array, npt.NDArray[np.bool_]]:
+    """Outcomes on the grid by boundary-following refinement (see the module docstring);
+    ``cancel`` is asked before each batch (:func:`~.atlas_flips.check_cancel`)."""
+    shape = (x_d.size, th.size)
+    out = np.full(shape, -1, dtype=np.int8)
+    todo = np.zeros(shape, dtype=bool)
+    todo[::stride, ::stride] = True
+    simulated = todo.copy()
+    check_cancel(cancel)
+    _simulate(design, x_d, th, todo, out, physics, threads)
+    s = stride
+    while s > 1:
+        c = out[::s, ::s]
+        ref = c[:-1, :-1]
+        mixed = (ref != c[1:, :-1]) | (ref != c[:-1, 1:]) | (ref != c[1:, 1:])
+        # Neighbours too: a boundary can cross a block's edge between two agreeing corners.
+        grown = mixed.copy()
+        grown[1:, :] |= mixed[:-1, :]
+        grown[:-1, :] |= mixed[1:, :]
+        grown[:, 1:] |= grown[:, :-1].copy()
+        grown[:, :-1] |= grown[:, 1:].copy()
+        fine = np.repeat(np.repeat(grown, s, axis=0), s, axis=1)
+        near = np.zeros(shape, dtype=bool)  # nodes touching a refined block
+        near[:-1, :-1] |= fine
+        near[1:, :-1] |= fine
+        near[:-1, 1:] |= fine
+        near[1:, 1:] |= fine
+        half = s // 2
+        todo = np.zeros(shape, dtype=bool)
+        todo[::half, ::half] = True
+        todo &= near & (out < 0)
+        check_cancel(cancel)
+        _simulate(design, x_d, th, todo, out, physics, threads)
+        simulated |= todo
+        # Nodes of untouched blocks take their block's common corner outcome.
+        fill = (out < 0) & ~near
+        i, k = np.nonzero(fill)
+        bi = np.minimum(i // s, c.shape[0] - 2)
+        bk = np.minimum(k // s, c.shape[1] - 2)
+        out[i, k] = c[bi, bk]
+        s = half
+    return out, simulated
