@@ -2,9 +2,9 @@
 keys of every command's JSON output and the node's parameters, against ``tests/interfaces.json``.
 
 The stored file was written before the core's regroup (on fe80e66, the last commit of the flat
-layout) by ``scripts/interface_snapshot.py --write tests/interfaces.json``; a change that means
-to extend the interface rewrites it in the same commit and says so. Topics and services are
-checked over DDS (tests/ros/test_interface_names.py).
+layout) by ``scripts/evidence/interface_snapshot.py --write tests/interfaces.json``; a change
+that means to extend the interface rewrites it in the same commit and says so. Topics and
+services are checked over DDS (tests/ros/test_interface_names.py).
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ STORED: dict[str, Any] = json.loads((ROOT / "tests" / "interfaces.json").read_te
 
 def _script() -> ModuleType:
     spec = importlib.util.spec_from_file_location(
-        "interface_snapshot", ROOT / "scripts" / "interface_snapshot.py"
+        "interface_snapshot", ROOT / "scripts" / "evidence" / "interface_snapshot.py"
     )
     assert spec is not None
     assert spec.loader is not None

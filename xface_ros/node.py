@@ -665,7 +665,7 @@ def main(args: list[str] | None = None) -> int:
     node: _Predictor | None = None
     # One executor thread for the services, parameters and timer: rclpy's
     # SingleThreadedExecutor took a 1 kHz pose stream with far fewer losses than its
-    # MultiThreadedExecutor (scripts/ros_stress.py, docs/ros.md); the poses are now read by
+    # MultiThreadedExecutor (scripts/bench/ros_stress.py, docs/ros.md); the poses are now read by
     # the pose reader's thread and simulated in the worker's, so callbacks stay short.
     executor = SingleThreadedExecutor()
     code = 0

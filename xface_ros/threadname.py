@@ -2,7 +2,7 @@
 
 Python 3.11 names a ``threading.Thread`` for Python only; every thread of the process shows
 the program's name to the kernel, so the worker's CPU cannot be told from the executor's
-(scripts/ros_stress.py reports CPU per thread name). Linux only; elsewhere, or if the call
+(scripts/bench/ros_stress.py reports CPU per thread name). Linux only; elsewhere, or if the call
 fails, the thread keeps its name: naming is a convenience, never a reason to fail.
 """
 

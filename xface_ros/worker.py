@@ -64,7 +64,7 @@ def warm_up_simulator(config: NodeConfig) -> None:
     With its path and ``margins=True``: the single-pose entry with a path and the batch
     kernel of the margin search, the atlas and ``min_margin``. Without its path: the entry a
     streamed pose takes when nobody subscribes to paths. Left out once, its compilation
-    stalled the first streamed poses of a fresh install for 5-7 s (scripts/ros_stress.py).
+    stalled the first streamed poses of a fresh install for 5-7 s (scripts/bench/ros_stress.py).
     """
     for with_path in (True, False):
         predict(

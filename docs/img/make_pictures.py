@@ -26,11 +26,11 @@ from pathlib import Path
 
 import numpy as np
 
-from xface_core.geometry import make_face
 from xface_core.codes import Outcome
+from xface_core.geometry import make_face
+from xface_core.maps.acceptance import acceptance_map
 from xface_core.predict import predict
 from xface_core.result import Phase
-from xface_core.maps.acceptance import acceptance_map
 from xface_core.viz.mapimage import save_map_png
 from xface_core.viz.recording import (
     default_blueprint,

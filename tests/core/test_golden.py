@@ -1,7 +1,7 @@
 """The redesign guard: maps, final states and paths equal the golden outputs stored before it.
 
-The golden file was written by ``python scripts/golden_maps.py --write`` on the engine before
-its redesign; every behaviour-preserving change of the engine must keep this test green.
+The golden file was written by ``python scripts/evidence/golden_maps.py --write`` on the engine
+before its redesign; every behaviour-preserving change of the engine must keep this test green.
 A change that is *meant* to change answers (a physics fix) regenerates the file in the same
 commit and says why in its message.
 """
@@ -20,7 +20,7 @@ GOLDEN = Path(__file__).resolve().parent / "golden" / "golden_maps.npz"
 
 
 def _load_script() -> ModuleType:
-    script = ROOT / "scripts" / "golden_maps.py"
+    script = ROOT / "scripts" / "evidence" / "golden_maps.py"
     spec = importlib.util.spec_from_file_location("golden_maps", script)
     assert spec is not None
     assert spec.loader is not None

@@ -1,7 +1,7 @@
 """The README's first command: ``python -m xface_ros.demo`` waits for the node to be ready,
 shows every kind of answer and the planner's, and leaves a recording that verifies.
 
-The end-to-end run is the short form of ``scripts/demo_fresh_clone.py`` (which runs ``make
+The end-to-end run is the short form of ``scripts/evidence/demo_fresh_clone.py`` (which runs ``make
 demo`` on a fresh clone beside two busy processes); the waiting is tested against a fake
 status source, without a node.
 """

@@ -1,4 +1,4 @@
-"""A short 1 kHz pose stream through scripts/ros_stress.py: the node stays sound.
+"""A short 1 kHz pose stream through scripts/bench/ros_stress.py: the node stays sound.
 
 Only properties that do not depend on the machine's speed are asserted: the node survives
 and exits cleanly, the service answers every call made during the stream, memory does not
@@ -27,12 +27,12 @@ MAX_RSS_GROWTH_MIB = 64.0
 
 
 def _stress(domain_id: int, tmp_path: Path, *args: str) -> dict[str, Any]:
-    """Run scripts/ros_stress.py with ``args``; its JSON results (it must exit with 0)."""
+    """Run scripts/bench/ros_stress.py with ``args``; its JSON results (it must exit with 0)."""
     out = tmp_path / "stress.json"
     log = tmp_path / "node.log"
     run = subprocess.run(
         [
-            sys.executable, str(ROOT / "scripts" / "ros_stress.py"), *args,
+            sys.executable, str(ROOT / "scripts" / "bench" / "ros_stress.py"), *args,
             "--domain-id", str(domain_id), "--json", str(out), "--node-log", str(log),
         ],
         cwd=ROOT, capture_output=True, text=True, timeout=600, check=False,

@@ -179,7 +179,7 @@ def bisect_every_flip(
     own line (34 simulations in 15-16 sequential batches, 1.7-1.9 ms on the bench's designs)
     or, the second time, bisecting the grid lines around it (59-70 simulations in 16
     batches, 2.6-3.4 ms). On the default grids of the bench's X, V and S: 4192-4490
-    segments, 0.26-0.41 s on two cores (``scripts/bench_atlas.py --every-flip``,
+    segments, 0.26-0.41 s on two cores (``scripts/bench/bench_atlas.py --every-flip``,
     docs/atlas.md).
     """
     todo = [key for key in boundary_segments(atlas.outcomes) if atlas.flips.get(key) is None]

@@ -58,7 +58,7 @@ DEFAULT_RAYS = 128
 FIRST_RAYS = 16
 #: An interval of rays is split while adding its middle ray changes its trapezoid by more
 #: than this times the interval's share of the circle (the error kept is well below it).
-#: Over 48 straddling queries (scripts/bench_seat_probability.py), against 1024 even rays:
+#: Over 48 straddling queries (scripts/bench/bench_seat_probability.py), against 1024 even rays:
 #: largest error 2.0e-3, median 4.7e-5, 36 rays and 22 ms (medians); 128 even rays: 2.4e-3,
 #: 1.6e-5, 43 ms.
 DEFAULT_RAY_TOL = 0.1
@@ -71,8 +71,8 @@ RAY_RADIUS = 5.0
 MAX_RAY_SAMPLES = 1024
 #: Bisection steps of each crossing (1/16 of a sample spacing). More buy nothing the rays'
 #: quadrature does not lose: over 48 straddling queries 6 steps took 1.28 times as long and
-#: left the largest error against 1024 rays the same, 2.4e-3 (scripts/bench_seat_probability.py,
-#: docs/atlas.md).
+#: left the largest error against 1024 rays the same, 2.4e-3
+#: (scripts/bench/bench_seat_probability.py, docs/atlas.md).
 CROSSING_STEPS = 4
 
 

@@ -338,7 +338,7 @@ class EngineMap:
 
     It depends only on the design's polygons, the physics and the engine's settings, so it
     can be stored and compared with xface again after xface changes (see
-    ``scripts/accuracy_table.py``).
+    ``scripts/evidence/accuracy_table.py``).
     """
 
     x0: FloatArray

@@ -20,7 +20,7 @@ the second line is its ``|x_tip| < D/2`` for the path of the moving tip.
   ``(r_p + h)/2``. On the paper's theta grid this reproduces Table III in all 121 cells, and
   only on that grid.
 - S-Face (:data:`S_RULE`): no rule of this kind reproduces Table IV (``docs/bounds.md`` and
-  ``scripts/search_s_rule.py`` give the evidence). The cut ``atan(1.5 h)`` (the outer S
+  ``scripts/evidence/search_s_rule.py`` give the evidence). The cut ``atan(1.5 h)`` (the outer S
   segment) and the capture half-width 1/3 are pinned by the table's structure; the lever
   ``0.512 r_p + 0.662 h - 0.025`` is the best fit found that keeps the cells the cut and
   reach decide alone, and matches 34 of the 99 printed cells (sum of |dM| 294). That is no

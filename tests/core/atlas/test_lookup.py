@@ -17,7 +17,7 @@ from xface_core.errors import XfaceValueError
 from xface_core.runner import clear_start_height
 
 #: Coarser than the default atlas, over its full default range (the angle search from
-#: |theta0| <= pi/2 reaches 3 pi/2); the full-size check is scripts/check_atlas.py.
+#: |theta0| <= pi/2 reaches 3 pi/2); the full-size check is scripts/evidence/check_atlas.py.
 COARSE = {"lateral_step": 1 / 32, "angle_step": math.pi / 128}
 
 
@@ -103,7 +103,7 @@ def test_bad_resolution_is_refused(v_atlas: xf.AcceptanceAtlas) -> None:
 
 
 def test_flip_between_last_grid_line_and_search_end_is_found() -> None:
-    # Found by scripts/check_atlas.py: this flip lies 3.1343 rad up, past the last atlas
+    # Found by scripts/evidence/check_atlas.py: this flip lies 3.1343 rad up, past the last atlas
     # grid line within the pi searched and before the exact scan's last node at pi.
     design = xf.s_face(0.25, 3.0)
     atlas = build_atlas(design)

@@ -2,7 +2,7 @@
 engine: on each cell xface and Chipmunk2D, sharp and rounded corners, agree on seating.
 
 This is the sample of the accuracy table (docs/accuracy.md) that CI runs; the table itself
-(`python scripts/accuracy_table.py`) takes tens of minutes.
+(`python scripts/evidence/accuracy_table.py`) takes tens of minutes.
 """
 
 from __future__ import annotations

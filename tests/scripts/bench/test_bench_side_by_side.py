@@ -1,4 +1,4 @@
-"""scripts/bench_side_by_side.py: two versions of xface_core in one process, timed side by side.
+"""scripts/bench/bench_side_by_side.py: two versions of xface_core, timed side by side.
 
 Timings are never asserted (a shared machine says nothing about them in a test); the tests
 check that the script runs, writes its table and rewrites absolute imports in its copies.
@@ -14,11 +14,11 @@ from types import ModuleType
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 
 
 def _load_script() -> ModuleType:
-    script = ROOT / "scripts" / "bench_side_by_side.py"
+    script = ROOT / "scripts" / "bench" / "bench_side_by_side.py"
     spec = importlib.util.spec_from_file_location("bench_side_by_side", script)
     assert spec is not None
     assert spec.loader is not None

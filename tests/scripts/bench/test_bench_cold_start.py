@@ -1,4 +1,4 @@
-"""scripts/bench_cold_start.py: what a fresh install's first answer costs (issue 35).
+"""scripts/bench/bench_cold_start.py: what a fresh install's first answer costs (issue 35).
 
 The real run installs xface five times (10-20 minutes): too heavy for the suite. These tests
 check the script's own pieces: its arguments, the table and the verdict on the ratios, the
@@ -22,10 +22,10 @@ import pytest
 
 from xface_core.frames import DockStart, start_to_relative_pose, yaw_to_quaternion
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 
 
-sys.path.insert(0, str(ROOT / "scripts"))
+sys.path.insert(0, str(ROOT / "scripts" / "bench"))
 bench = importlib.import_module("bench_cold_start")
 
 

@@ -1,4 +1,4 @@
-"""scripts/bench_atlas.py counts what the margins send to the engine (it once counted a name
+"""scripts/bench/bench_atlas.py counts what the margins send to the engine (it once counted a name
 the margins no longer called, and read 0 without an error)."""
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ from types import ModuleType
 import xface_core as xf
 from xface_core.atlas.build import build_atlas
 
-SCRIPT = Path(__file__).resolve().parents[2] / "scripts" / "bench_atlas.py"
+SCRIPT = Path(__file__).resolve().parents[3] / "scripts" / "bench" / "bench_atlas.py"
 
 
 def _script() -> ModuleType:

@@ -1,6 +1,6 @@
 """The user-facing interface of xface as one JSON document, to show a change kept it.
 
-    python scripts/interface_snapshot.py [--write tests/interfaces.json]
+    python scripts/evidence/interface_snapshot.py [--write tests/interfaces.json]
 
 What it holds: ``xface_core.__all__``; every ``xface`` command with its options; the key
 paths of each command's ``--json`` output on small runs (nested keys joined by ``.``, list

@@ -1,9 +1,9 @@
 #!/usr/bin/env python3
 """Cold start: how long a new user waits for the first answer after installing xface.
 
-    python3 scripts/bench_cold_start.py                     # every kind: 10-20 minutes
-    python3 scripts/bench_cold_start.py --kinds wheel,readonly --out cold_start.md
-    python3 scripts/bench_cold_start.py --source ~/xface --also-cold --keep
+    python3 scripts/bench/bench_cold_start.py                     # every kind: 10-20 minutes
+    python3 scripts/bench/bench_cold_start.py --kinds wheel,readonly --out cold_start.md
+    python3 scripts/bench/bench_cold_start.py --source ~/xface --also-cold --keep
 
 Issue 35: the build compiles the engine into the package (setup.py runs ``python -m
 xface_core.precompile``), so the first ``xface predict`` of a fresh install should take at
@@ -68,7 +68,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 SCRIPT = Path(__file__).resolve()
 
 KINDS = ("wheel", "pip", "editable", "readonly", "node")
@@ -338,7 +338,13 @@ def format_report(
 ) -> str:
     """Title, set-up lines, the table, the verdict, the total time and each kind's notes."""
     bad = failures(results)
-    lines = ["## Cold start (scripts/bench_cold_start.py)", "", *header, "", format_table(results)]
+    lines = [
+        "## Cold start (scripts/bench/bench_cold_start.py)",
+        "",
+        *header,
+        "",
+        format_table(results),
+    ]
     lines += [""]
     if bad:
         lines += ["**Issue 35's criterion is not met:**", *(f"- {why}" for why in bad)]
@@ -991,7 +997,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(json.dumps(node_client(json.loads(args.node_client))), flush=True)
         return 0
     started = time.perf_counter()
-    command = shlex.join(["scripts/bench_cold_start.py", *(sys.argv[1:] if argv is None else argv)])
+    command = shlex.join(
+        ["scripts/bench/bench_cold_start.py", *(sys.argv[1:] if argv is None else argv)]
+    )
     work = Path(tempfile.mkdtemp(prefix="xface-cold-start-"))
     bench = ColdStart(args, work)
     results: list[Result] = []

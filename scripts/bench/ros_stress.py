@@ -1,9 +1,9 @@
 #!/usr/bin/env python3
 """Stress the xface_predictor node: a fast PoseStamped stream into a node process.
 
-    .venv/bin/python scripts/ros_stress.py                 # 1 kHz for 10 s (the docs' numbers)
-    .venv/bin/python scripts/ros_stress.py --rate 200 --duration 3 --json out.json
-    .venv/bin/python scripts/ros_stress.py --margins-pairs 2  # on / off, twice: issue 11's ratios
+    .venv/bin/python scripts/bench/ros_stress.py               # 1 kHz for 10 s (the docs' numbers)
+    .venv/bin/python scripts/bench/ros_stress.py --rate 200 --duration 3 --json out.json
+    .venv/bin/python scripts/bench/ros_stress.py --margins-pairs 2  # on / off, twice
 
 Starts the node as its own process (``python -m xface_ros`` with config/xface.yaml), then
 from this process:
@@ -49,7 +49,7 @@ from typing import Any
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 #: (x0 / D, theta0 rad) cycled by the stream: seats, seats, jams, out of reach, misses.
 POSES = [(0.0, 0.0), (0.3, 0.2), (0.9, 0.8), (2.5, 0.0), (1.5, 0.3), (-0.4, -0.3)]

@@ -8,8 +8,8 @@ r_p = 0 and large, with and without friction, with a held base and a soft base) 
   event counts per cell,
 * full predictions with paths for a few poses per design.
 
-    python scripts/golden_maps.py --write tests/core/golden/golden_maps.npz
-    python scripts/golden_maps.py --check tests/core/golden/golden_maps.npz [--exact]
+    python scripts/evidence/golden_maps.py --write tests/core/golden/golden_maps.npz
+    python scripts/evidence/golden_maps.py --check tests/core/golden/golden_maps.npz [--exact]
 
 ``--check`` exits 1 on any difference: outcome codes and counts must be equal; floats must
 agree to 1e-9 (or bit for bit with ``--exact``; glibc picks its sin/cos implementation per

@@ -9,8 +9,8 @@
 
 Usage::
 
-    python scripts/check_atlas.py [--poses 1000] [--queries 30] [--samples 20000] [--seed 0]
-        [--every-flip]
+    python scripts/evidence/check_atlas.py [--poses 1000] [--queries 30] [--samples 20000]
+        [--seed 0] [--every-flip]
 
 ``--every-flip`` builds the margins' atlases with every grid-line flip bisected
 (``build_atlas(every_flip=True)``, as the ROS node does).

@@ -2,9 +2,9 @@
 
 Evidence for docs/bounds.md. Run from the repository root (about a minute on one core)::
 
-    .venv/bin/python scripts/search_s_rule.py            # everything
-    .venv/bin/python scripts/search_s_rule.py --quick    # skips the calibration fits
-    .venv/bin/python scripts/search_s_rule.py --wide     # + the wide lever fit (~15 min)
+    .venv/bin/python scripts/evidence/search_s_rule.py            # everything
+    .venv/bin/python scripts/evidence/search_s_rule.py --quick    # skips the calibration fits
+    .venv/bin/python scripts/evidence/search_s_rule.py --wide     # + the wide lever fit (~15 min)
 
 Table III (V-Face) is reproduced in all 121 cells by a "lever rule" (xface_core.maps.bounds):
 angle cut |theta0| < pi/2 - atan(2h), tip band |x0 + l sin(theta0)| < 1/2 with lever
@@ -35,7 +35,7 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
 from xface_core.maps.grids import PAPER_H_OVER_D, theta_grid, x0_grid
 from xface_core.maps.paper import PAPER_MEAN_RATIO_XS, paper_table

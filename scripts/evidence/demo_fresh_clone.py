@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
 """Issue 35 as a new user met it: ``make demo`` on a fresh clone, on a busy machine.
 
-    python3 scripts/demo_fresh_clone.py                          # its own .venv: ~1 GB, minutes
-    .venv/bin/python scripts/demo_fresh_clone.py --venv .venv    # an installed venv: quicker
+    python3 scripts/evidence/demo_fresh_clone.py                   # its own .venv: ~1 GB, minutes
+    .venv/bin/python scripts/evidence/demo_fresh_clone.py --venv .venv   # installed venv: quicker
 
 Clones the repository's HEAD (``git clone`` of this checkout: uncommitted files never leak
 in) into a temporary folder, starts ``--busy`` (default 2) CPU-bound processes beside it
@@ -46,7 +46,7 @@ from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 #: make's install stamp in a venv (the Makefile's STAMP): present once make installed it.
 INSTALL_STAMP = ".xface-installed"
 #: Where the demo writes its recording, in the directory make runs it in.

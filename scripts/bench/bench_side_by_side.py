@@ -1,6 +1,6 @@
 """Time two versions of xface_core side by side: the ratio after/before.
 
-    python scripts/bench_side_by_side.py --before <git-rev> [--after <git-rev>|WORKTREE]
+    python scripts/bench/bench_side_by_side.py --before <git-rev> [--after <git-rev>|WORKTREE]
         [--repeats N] [--quick] [--out docs/notes/DATE-side-by-side-SUBJECT.md] [--note TEXT]
 
 A git revision's ``xface_core/`` is extracted (``git archive``) into a temporary directory as
@@ -45,7 +45,7 @@ from typing import Any
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 PACKAGE = "xface_core"
 WORKTREE = "WORKTREE"
 Design = tuple[str, float, float]  # kind, H/D, r_p
@@ -355,7 +355,7 @@ def report(args: argparse.Namespace, argv: Sequence[str], info: dict[str, Any]) 
             f"warm-up (compile or cache load) {warm[0]:.1f} s before, {warm[1]:.1f} s after"
         ),
         f"- machine: {machine_note()}; {datetime.now(UTC):%Y-%m-%d %H:%M} UTC",
-        f"- command: `python scripts/bench_side_by_side.py {shlex.join(argv)}`",
+        f"- command: `python scripts/bench/bench_side_by_side.py {shlex.join(argv)}`",
         "",
     ]
     return "\n".join([*head, *info["body"]]) + "\n"

@@ -1,4 +1,4 @@
-"""scripts/profile_kernel.py: a perf map of the compiled engine, and the shares of a profile.
+"""scripts/bench/profile_kernel.py: a perf map of the compiled engine, and the shares of a profile.
 
 The profile itself needs ``perf`` and half a minute; the tests check the map's form and the
 report's arithmetic on a sample of ``perf report`` output.
@@ -16,10 +16,10 @@ import pytest
 import xface_core as xf
 import xface_core._engine as engine
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 
 
-sys.path.insert(0, str(ROOT / "scripts"))
+sys.path.insert(0, str(ROOT / "scripts" / "bench"))
 profile = importlib.import_module("profile_kernel")
 
 SAMPLE = """\

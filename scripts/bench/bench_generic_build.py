@@ -1,6 +1,6 @@
 """Time the precompiled engine (built for a generic CPU) against one compiled for this host.
 
-    python scripts/bench_generic_build.py [--build DIR] [--rounds N] [--quick]
+    python scripts/bench/bench_generic_build.py [--build DIR] [--rounds N] [--quick]
 
 The install's precompiled engine (``xface_core/_engine/_compiled``, or ``--build DIR``) is
 machine code for a generic CPU of the architecture; a compile on the user's machine would
@@ -24,7 +24,7 @@ import tempfile
 import textwrap
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 #: The child's workloads: 41 x 41 maps of three faces (one thread) and single predictions.
 CHILD = textwrap.dedent(

@@ -1,4 +1,4 @@
-"""scripts/ros_stress.py: CPU per thread name, read from /proc (the run itself is
+"""scripts/bench/ros_stress.py: CPU per thread name, read from /proc (the run itself is
 tests/ros/test_stress.py)."""
 
 from __future__ import annotations
@@ -12,8 +12,8 @@ from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(ROOT / "scripts"))
+ROOT = Path(__file__).resolve().parents[3]
+sys.path.insert(0, str(ROOT / "scripts" / "bench"))
 stress = importlib.import_module("ros_stress")
 
 pytestmark = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")

@@ -2,8 +2,9 @@
 """Where the compiled kernel spends its time: a ``perf`` profile with the engine's names.
 
     perf record -F 2000 -o /tmp/kernel.data \\
-        .venv/bin/python scripts/profile_kernel.py --face S --h-over-d 0.5 --r-p 1 --seconds 30
-    .venv/bin/python scripts/profile_kernel.py --report /tmp/kernel.data
+        .venv/bin/python scripts/bench/profile_kernel.py --face S --h-over-d 0.5 --r-p 1 \\
+        --seconds 30
+    .venv/bin/python scripts/bench/profile_kernel.py --report /tmp/kernel.data
 
 ``perf`` sees numba's machine code as anonymous memory. The first form compiles the engine
 afresh (into a temporary numba cache: a kernel loaded from the cache knows only its entry

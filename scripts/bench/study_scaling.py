@@ -1,6 +1,6 @@
 """Scaling of a design study on Dask: the same sweep on 1 and on 2 workers, side by side.
 
-    python scripts/study_scaling.py [--repeats 3] [--grid 41] [--face X]
+    python scripts/bench/study_scaling.py [--repeats 3] [--grid 41] [--face X]
 
 Starts a Dask ``LocalCluster`` on loopback (no dashboard) with one worker process and another
 with two (one thread each), and runs the face's 121 designs of the paper's table (11 H/D x

@@ -12,8 +12,8 @@ bounds, say so when quoting them.
 
 Usage::
 
-    python scripts/bench_atlas.py [--poses 60] [--builds 3] [--held 5] [--stream 40] [--seed 1]
-        [--every-flip]
+    python scripts/bench/bench_atlas.py [--poses 60] [--builds 3] [--held 5] [--stream 40]
+        [--seed 1] [--every-flip]
 """
 
 from __future__ import annotations

@@ -1,13 +1,13 @@
 #!/usr/bin/env python3
 """Seat probability: run time against error for the quadrature's settings.
 
-    .venv/bin/python scripts/bench_seat_probability.py [--queries 12] [--seed 0] [--suggest]
+    .venv/bin/python scripts/bench/bench_seat_probability.py [--queries 12] [--seed 0] [--suggest]
 
 ``seat_probability`` integrates the Gaussian over rays, adaptive in angle (``ray_tol``, the
 default) or ``rays`` evenly spaced ones, and bisects every boundary crossing along a ray
 ``crossing_steps`` times (default 4). This script draws
 random queries that straddle a boundary (0.001 < P < 0.999 at the reference) on the designs
-of ``scripts/check_atlas.py``'s probability check and the ROS node's (X 0.25/1), computes a
+of ``scripts/evidence/check_atlas.py``'s probability check and the ROS node's (X 0.25/1), computes a
 reference with 1024 even rays and 10 crossing steps, and reports for each setting the largest
 and the median |P - P_ref| and the median time, rays and simulations per query. The poses and
 covariances are drawn as in ``check_atlas.py`` (sigma log-uniform in [0.005, 0.32] D and rad,
@@ -21,13 +21,19 @@ from __future__ import annotations
 import argparse
 import math
 import statistics
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
-from check_atlas import near_seated_poses, random_covariance  # this folder
 
 import xface_core as xf
 from xface_core.atlas import probability
+from xface_core.runner import count_engine_calls
+
+# The queries are drawn as the atlas's own check draws them (scripts/evidence/check_atlas.py).
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "evidence"))
+from check_atlas import near_seated_poses, random_covariance
 
 DESIGNS = (("X", 0.25, 2.0), ("V", 0.5, 1.0), ("S", 1.0, 1.0), ("X", 0.25, 1.0))
 REFERENCE = (1024, 10)
@@ -55,18 +61,12 @@ def straddling_queries(
 
 
 class Counting:
-    """Counts the simulations ``seat_probability`` asks ``predict_batch`` for and the rays
-    whose masses it computes."""
+    """Counts the rays whose masses ``seat_probability`` computes (its simulations are
+    counted by ``runner.count_engine_calls``)."""
 
     def __init__(self) -> None:
-        self.sims = 0
         self.rays = 0
-        self._inner = probability.predict_batch
         self._masses = probability._ray_masses
-
-    def __call__(self, design, x0, theta0, **kw):  # type: ignore[no-untyped-def]
-        self.sims += int(np.size(x0))
-        return self._inner(design, x0, theta0, **kw)
 
     def masses(self, *args):  # type: ignore[no-untyped-def]
         self.rays += int(np.size(args[4]))  # phi
@@ -121,12 +121,10 @@ def main(argv: list[str] | None = None) -> int:
         time_suggestions(args.queries, rng)
         return 0
     counter = Counting()
-    probability.predict_batch = counter  # count the simulations of every call below
-    probability._ray_masses = counter.masses  # and the rays
+    probability._ray_masses = counter.masses  # count the rays of every call below
     try:
         work_precision(args.queries, rng, counter)
     finally:
-        probability.predict_batch = counter._inner
         probability._ray_masses = counter._masses
     return 0
 
@@ -158,17 +156,18 @@ def work_precision(n_queries: int, rng: np.random.Generator, counter: Counting) 
             kept += 1
             for key in settings:
                 rays, tol, steps = key
-                counter.sims = counter.rays = 0
-                t0 = time.perf_counter()
-                p = float(
-                    xf.seat_probability(
-                        design, x, theta0, c, atlas=atlas, rays=rays,
-                        ray_tol=tol if rays is None else probability.DEFAULT_RAY_TOL,
-                        crossing_steps=steps,
-                    )
-                )  # fmt: skip
-                times[key].append(time.perf_counter() - t0)
-                sims[key].append(counter.sims)
+                counter.rays = 0
+                with count_engine_calls() as calls:
+                    t0 = time.perf_counter()
+                    p = float(
+                        xf.seat_probability(
+                            design, x, theta0, c, atlas=atlas, rays=rays,
+                            ray_tol=tol if rays is None else probability.DEFAULT_RAY_TOL,
+                            crossing_steps=steps,
+                        )
+                    )  # fmt: skip
+                    times[key].append(time.perf_counter() - t0)
+                sims[key].append(calls.poses)
                 rays_used[key].append(counter.rays)
                 errors[key].append(abs(p - ref))
                 if key == DEFAULT and abs(p - ref) > worst[0]:
@@ -180,6 +179,8 @@ def work_precision(n_queries: int, rng: np.random.Generator, counter: Counting) 
                     )
                     worst = (abs(p - ref), query)
         print(f"{kind} {h:g}/{rp:g}: {kept} straddling queries", flush=True)
+    if not any(sum(s) for s in sims.values()) or not any(sum(r) for r in rays_used.values()):
+        raise SystemExit("counted no simulation or no ray: a counter of this bench is broken")
     n = len(errors[settings[0]])
     print(f"\n{n} straddling queries over {len(DESIGNS)} designs; reference "
           f"{REFERENCE[0]} rays, {REFERENCE[1]} crossing steps\n")  # fmt: skip

@@ -1,4 +1,4 @@
-"""scripts/pymunk_sampling.py: the pymunk scene's map timed cell by cell (the numbers are
+"""scripts/evidence/pymunk_sampling.py: the pymunk scene's map timed cell by cell (the numbers are
 timings, never asserted; the tests check what the script counts)."""
 
 from __future__ import annotations
@@ -9,8 +9,8 @@ from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(ROOT / "scripts"))
+ROOT = Path(__file__).resolve().parents[3]
+sys.path.insert(0, str(ROOT / "scripts" / "evidence"))
 sampling = importlib.import_module("pymunk_sampling")
 
 

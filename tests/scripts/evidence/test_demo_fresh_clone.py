@@ -1,4 +1,4 @@
-"""scripts/demo_fresh_clone.py's pieces: what a good demo run shows, the busy processes it
+"""scripts/evidence/demo_fresh_clone.py's pieces: what a good demo run shows, the busy processes it
 always ends, and the venv it never installs into (the whole run takes minutes: the script
 itself, docs/ros.md gives its numbers)."""
 
@@ -13,8 +13,8 @@ from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(ROOT / "scripts"))
+ROOT = Path(__file__).resolve().parents[3]
+sys.path.insert(0, str(ROOT / "scripts" / "evidence"))
 fresh = importlib.import_module("demo_fresh_clone")
 
 #: The demo's lines of a good run (make demo on a fresh clone; node log lines left out).

@@ -1,8 +1,8 @@
 """The accuracy table: xface against the converged Chipmunk2D engine, design by design.
 
-    python scripts/accuracy_table.py --out docs/accuracy.md          # every design, 21 x 21
-    python scripts/accuracy_table.py --only "V 0.0625 1" --grid 11   # one design, quick
-    python scripts/accuracy_table.py --check                         # exit 1 below the bar
+    python scripts/evidence/accuracy_table.py --out docs/accuracy.md         # all, 21 x 21
+    python scripts/evidence/accuracy_table.py --only "V 0.0625 1" --grid 11  # one, quick
+    python scripts/evidence/accuracy_table.py --check                   # exit 1 below the bar
 
 For every design of :data:`DESIGNS` (the paper's four sizes of each face and more, H/D from
 0.0625 to 5.278, r_p from 0 to 8, two with friction, and the two custom faces of the golden
@@ -40,7 +40,7 @@ import xface_core as xf
 from xface_core.crosscheck import compare as cc
 from xface_core.crosscheck import scene
 
-#: Custom faces by name (the golden outputs' two: scripts/golden_maps.py).
+#: Custom faces by name (the golden outputs' two: scripts/evidence/golden_maps.py).
 CUSTOM = {"trapezoid": trapezoid_face, "lopsided": lopsided_face}
 
 #: Agreement (fraction of the unambiguous cells) every design must reach.
@@ -252,7 +252,7 @@ def main(argv: list[str] | None = None) -> int:
                 file=sys.stderr,
                 flush=True,
             )
-    command = "python scripts/accuracy_table.py" + (
+    command = "python scripts/evidence/accuracy_table.py" + (
         f" --grid {args.grid}" if args.grid != 21 else ""
     )
     text = markdown(rows, args.grid, command)

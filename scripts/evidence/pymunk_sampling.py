@@ -2,8 +2,8 @@
 """How well the grid's diagonal samples the pymunk scene's time per map (docs/bench.md;
 the measurement: docs/notes/2026-11-23-pymunk-whole-map.md).
 
-    .venv/bin/python scripts/pymunk_sampling.py            # the bench's four designs, 41 x 41
-    .venv/bin/python scripts/pymunk_sampling.py --grid 11 --design X 0.25 2
+    .venv/bin/python scripts/evidence/pymunk_sampling.py      # the bench's four designs, 41 x 41
+    .venv/bin/python scripts/evidence/pymunk_sampling.py --grid 11 --design X 0.25 2
 
 For each design, runs every cell of the map in the pymunk scene of the crosscheck extra (one
 thread, each cell timed) and prints: the map's time, the diagonal's estimate of it (its cells'

@@ -10,7 +10,7 @@ machine as it is: upper bounds on a shared machine). docs/ros.md quotes it.
 
 Usage::
 
-    python scripts/bench_planner_margins.py [--poses 60] [--seed 7] [--face X --h-over-d 0.25
+    python scripts/bench/bench_planner_margins.py [--poses 60] [--seed 7] [--face X --h-over-d 0.25
         --r-p 1 --width 0.05]
 """
 
