@@ -709,6 +709,8 @@ def _cmd_table(args: argparse.Namespace) -> int:
 
 
 def _crosscheck_cells(args: argparse.Namespace) -> list[tuple[float, float]] | None:
+    if args.seed < 0:  # numpy's generators take none (a ValueError from deep inside)
+        raise XfaceValueError(f"--seed must be >= 0, got {args.seed}")
     if args.cells is None:
         return None
     if args.cells < 1:

@@ -198,6 +198,11 @@ def test_a_bench_folder_that_is_not_utf8_is_refused(
     _one_error_line(capsys, ["bench", "--quick", "--out", NOT_UTF8], "'study\\xff.parquet'")
 
 
+def test_a_negative_crosscheck_seed_is_one_error_line(capsys: pytest.CaptureFixture[str]) -> None:
+    pytest.importorskip("pymunk")
+    _one_error_line(capsys, ["crosscheck", "--cells", "1", "--seed", "-1"], "--seed must be >= 0")
+
+
 # --- compare, face files, closed stderr ---------------------------------------------------------
 
 
