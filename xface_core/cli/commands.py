@@ -8,6 +8,9 @@ machines. Recordings (``--rrd``), pictures (``--png``, ``--svg``) and the bench 
 ``viz`` extra (rerun-sdk, matplotlib); without it they exit with code 2 and say so, before
 simulating.
 ``xface crosscheck`` needs the ``crosscheck`` extra (pymunk) in the same way.
+A number takes every spelling ``float`` reads, negative ones too (``--x0 -1e-3``). The names
+given to ``--png``, ``--svg``, ``--rrd`` and ``--out`` are checked before anything runs
+(docs/recording.md: not empty, UTF-8, a file not ending in a separator, the format's suffix).
 
 Exit codes: 0 done; 2 a user error (one ``xface: error: ...`` line on stderr), also for a
 closed stdout (``>&-``: the answer would be lost, so nothing runs); 130 interrupted (Ctrl-C;
@@ -28,6 +31,7 @@ import json
 import math
 import multiprocessing
 import os
+import re
 import signal
 import sys
 import threading
@@ -133,6 +137,60 @@ def _check_crosscheck(args: argparse.Namespace) -> None:
         if (exc.name or "").partition(".")[0] != "pymunk":
             raise  # a bug of ours, not a missing extra
         raise _CrosscheckMissing from None
+
+
+#: The format each file option writes: its suffix (which the name must end in, case aside:
+#: the format follows the option, and PNG bytes in ``out.jpg`` would mislead every reader)
+#: and what it is. ``--out`` (a study's Parquet file, the bench's folder) has no suffix rule.
+_OUTPUT_FORMATS = {
+    "png": (".png", "a PNG picture"),
+    "svg": (".svg", "an SVG picture"),
+    "rrd": (".rrd", "a rerun recording"),
+}
+
+
+def _shown_name(name: str) -> str:
+    """``name`` quoted for a message, its undecodable bytes as ``\\xff`` (the bytes the user
+    typed) and a NUL as ``\\0``: text any terminal shows."""
+    try:
+        raw = os.fsencode(name)
+    except UnicodeEncodeError:  # a lone surrogate no decoding made (main() called from Python)
+        raw = name.encode("utf-8", "backslashreplace")
+    return "'" + raw.decode("utf-8", "backslashreplace").replace("\0", "\\0") + "'"
+
+
+def _check_output_name(name: str, option: str, *, folder: bool) -> None:
+    """Refuse (exit 2, before anything runs) an output name that cannot be written as asked:
+    empty, holding NUL or bytes that are not UTF-8 text (pyarrow and the printed summaries
+    take text only), or, for a file, ending in a separator (``somedir/`` became a file
+    ``somedir``) or in a suffix other than its format's (:data:`_OUTPUT_FORMATS`)."""
+    shown = _shown_name(name)
+    if not name:
+        raise XfaceValueError(f"{option}: the name is empty")
+    if "\0" in name:
+        raise XfaceValueError(f"{option} {shown}: a name cannot hold a NUL character")
+    try:
+        name.encode("utf-8")
+    except UnicodeEncodeError:
+        raise XfaceValueError(f"{option} {shown}: the name is not UTF-8 text; rename it") from None
+    if folder:
+        return
+    if name.endswith(tuple(sep for sep in (os.sep, os.altsep) if sep)):
+        raise XfaceValueError(f"{option} {shown}: ends in a separator (a folder): give a file name")
+    suffix, what = _OUTPUT_FORMATS.get(option.removeprefix("--"), (None, ""))
+    if suffix is not None and Path(name).suffix.lower() != suffix:
+        raise XfaceValueError(f"{option} {shown}: {option} writes {what}: name it *{suffix}")
+
+
+def _check_output_names(args: argparse.Namespace) -> None:
+    """Every file or folder the command will write is named well (:func:`_check_output_name`):
+    ``--png``, ``--svg``, ``--rrd``, and ``--out`` (a study's Parquet file; the bench's
+    folder)."""
+    for name in ("png", "svg", "rrd", "out"):
+        value = getattr(args, name, None)
+        if value is not None:
+            folder = name == "out" and args.command == "bench"
+            _check_output_name(value, f"--{name}", folder=folder)
 
 
 #: The built-in design the commands default to: the node's (config/xface.yaml).
@@ -476,10 +534,24 @@ def _compare_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--svg", default=None, help="the same picture as SVG")
 
 
+#: What a --vs-* option of ``xface compare`` replaces in design B (``--vs-h-over-d``: h_over_d).
+_VS_NAMES = ("face", "h_over_d", "rp", "face_file", "damping_ratio", "friction")
+
+
+def _check_compare(args: argparse.Namespace) -> None:
+    """``xface compare`` without a --vs-* option would compare a design with itself: refused
+    (exit 2), before either map runs."""
+    if args.command == "compare" and all(getattr(args, f"vs_{n}") is None for n in _VS_NAMES):
+        options = ", ".join("--vs-" + n.replace("_", "-") for n in _VS_NAMES)
+        raise XfaceValueError(
+            f"compare needs a design B that differs from A: give at least one of {options}"
+        )
+
+
 def _compare_b(args: argparse.Namespace) -> argparse.Namespace:
     """The arguments of design B: A's, with every --vs-* option given put in."""
     b = argparse.Namespace(**vars(args))
-    for name in ("face", "h_over_d", "rp", "face_file", "damping_ratio", "friction"):
+    for name in _VS_NAMES:
         value = getattr(args, f"vs_{name}")
         if value is not None:
             setattr(b, name, value)
@@ -637,6 +709,8 @@ def _cmd_table(args: argparse.Namespace) -> int:
 
 
 def _crosscheck_cells(args: argparse.Namespace) -> list[tuple[float, float]] | None:
+    if args.seed < 0:  # numpy's generators take none (a ValueError from deep inside)
+        raise XfaceValueError(f"--seed must be >= 0, got {args.seed}")
     if args.cells is None:
         return None
     if args.cells < 1:
@@ -768,11 +842,38 @@ class _VersionAction(argparse.Action):
         parser.exit(0)
 
 
+#: An argument that is a number, not an option, although it starts with ``-``: every spelling
+#: of a negative float (``-1``, ``-.5``, ``-1e-3``, ``-2.5E+2``, ``-inf``, ``-nan``), or a comma
+#: list of numbers starting with one (``--h-over-d -0.5,1`` of sweep, refused by its own check).
+#: argparse's own pattern takes only ``-1`` and ``-.5``, so that ``--x0 -1e-3`` was "expected
+#: one argument" while ``--x0=-1e-3`` worked.
+_NUMBER = r"(?:(?:\d+\.?\d*|\.\d+)(?:e[-+]?\d+)?|inf(?:inity)?|nan)"
+NEGATIVE_NUMBER = re.compile(rf"^-{_NUMBER}(?:\s*,\s*[-+]?{_NUMBER})*$", re.IGNORECASE)
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse's parser with two changes, which every subcommand's parser has too
+    (``add_subparsers`` makes them of the parent's class):
+
+    - a value that is a negative number in any spelling (:data:`NEGATIVE_NUMBER`) is a value,
+      not an unknown option: argparse decides this with ``_negative_number_matcher`` alone
+      (no option of xface looks like a number, so nothing else changes);
+    - its messages (usage errors, help) reach a stream that cannot encode every character
+      (a closed stderr's stand-in, a strict one) with those characters escaped, not as a
+      UnicodeEncodeError: ``unrecognized arguments`` quotes the user's bytes as they are."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self._negative_number_matcher = NEGATIVE_NUMBER
+
+    def _print_message(self, message: str, file: Any = None) -> None:
+        stream = sys.stderr if file is None else file
+        super()._print_message(_escaped(message, stream), stream)
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of ``xface`` (exposed for the docs and the tests)."""
-    parser = argparse.ArgumentParser(
-        prog="xface", description="Predict passive docking of planar connector faces."
-    )
+    parser = _Parser(prog="xface", description="Predict passive docking of planar connector faces.")
     parser.add_argument(
         "--version",
         action=_VersionAction,
@@ -913,17 +1014,40 @@ def _null_closed_streams() -> bool:
         if closed:
             _to_devnull(fd)
         if closed or getattr(sys, name) is None:
-            setattr(sys, name, open(os.devnull, "w"))  # noqa: SIM115 (open until exit)
+            # Escaping as Python's stderr does: a message quoting undecodable bytes must not
+            # raise here, where nobody would see why the exit code is 1.
+            stand_in = open(os.devnull, "w", errors="backslashreplace")  # noqa: SIM115 (open until exit)
+            setattr(sys, name, stand_in)
             lost.add(name)
     return "stdout" in lost
 
 
-def _say(line: str) -> None:
-    """``line`` on stderr; a stderr that cannot take it (a dead pipe) goes to /dev/null, so
-    that neither this nor Python's flush at exit turns the run's end into a traceback."""
+def _escaped(text: str, stream: object) -> str:
+    """``text`` as ``stream`` can encode it: what its encoding cannot hold (the undecodable
+    bytes of a name, as surrogates) as backslash escapes, the way Python's own stderr writes
+    them."""
+    encoding = getattr(stream, "encoding", None) or "utf-8"
     try:
-        print(line, file=sys.stderr, flush=True)
-    except OSError:
+        return text.encode(encoding, "backslashreplace").decode(encoding)
+    except LookupError:  # a stream naming an encoding Python does not know
+        return text.encode("ascii", "backslashreplace").decode("ascii")
+
+
+def _one_line(message: str) -> str:
+    """``message`` on one line: its lines joined by a space, stripped, without the lines that
+    only point with carets (YAML's ``^`` under a column), so that an error quoting a parser's
+    report (a face file's syntax error) is still the one ``xface: error:`` line."""
+    lines = (line.strip() for line in message.splitlines())
+    return " ".join(line for line in lines if line.strip("^"))
+
+
+def _say(line: str) -> None:
+    """``line`` on stderr, escaped as it can take it; a stderr that cannot take it at all (a
+    dead pipe, a closed file) goes to /dev/null, so that neither this nor Python's flush at
+    exit turns the run's end into a traceback."""
+    try:
+        print(_escaped(line, sys.stderr), file=sys.stderr, flush=True)
+    except (OSError, ValueError):
         _to_devnull(2)
 
 
@@ -1043,6 +1167,8 @@ def _run(argv: Sequence[str] | None) -> int:
         return exc.code if isinstance(exc.code, int) else 0 if exc.code is None else 2
     try:
         _check_workers(args)
+        _check_output_names(args)
+        _check_compare(args)
         _check_viz(args)
         _check_crosscheck(args)
         _say_if_compiling(args)
@@ -1052,7 +1178,7 @@ def _run(argv: Sequence[str] | None) -> int:
         raise  # main's: not a user error
     except OSError as exc:  # an unwritable --out/--png/--rrd, a missing file, a full disk
         where = f"{exc.filename}: " if exc.filename else ""
-        _say(f"xface: error: {where}{exc.strerror or exc}")
+        _say(f"xface: error: {_one_line(f'{where}{exc.strerror or exc}')}")
         return 2
     except _VizMissing as exc:
         _say(f"xface: {exc.args[0]} needs the viz extra: {_VIZ_HINT}")
@@ -1060,7 +1186,7 @@ def _run(argv: Sequence[str] | None) -> int:
     except _CrosscheckMissing:
         _say(f"xface: crosscheck needs the crosscheck extra: {_CROSSCHECK_HINT}")
         return 2
-    except XfaceError as exc:
-        _say(f"xface: error: {exc}")
+    except XfaceError as exc:  # a FaceFileError quoting YAML's report too: one line
+        _say(f"xface: error: {_one_line(str(exc))}")
         return 2
     return result

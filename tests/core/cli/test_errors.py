@@ -26,7 +26,8 @@ def _error(capsys: pytest.CaptureFixture[str], argv: list[str], message: str) ->
 def test_an_unwritable_picture_or_recording_is_an_error(
     capsys: pytest.CaptureFixture[str], option: str
 ) -> None:
-    _error(capsys, ["map", "--grid", "5", option, "/nonexistent/dir/out.x"], "/nonexistent")
+    name = f"/nonexistent/dir/out.{option.removeprefix('--')}"
+    _error(capsys, ["map", "--grid", "5", option, name], "/nonexistent")
 
 
 @pytest.mark.parametrize("command", ["predict --x0 0.1 --theta0 0.1", "map --grid 5"])
@@ -34,8 +35,10 @@ def test_an_unwritable_recording_prints_one_line_and_nothing_from_rerun(
     tmp_path: Path, command: str
 ) -> None:
     """Run as a program: rerun's own warnings go to the process's stderr, past capsys."""
+    folder = tmp_path / "taken.rrd"  # named as a recording, but a folder
+    folder.mkdir()
     proc = subprocess.run(
-        [sys.executable, "-m", "xface_core.cli", *command.split(), "--rrd", str(tmp_path)],
+        [sys.executable, "-m", "xface_core.cli", *command.split(), "--rrd", str(folder)],
         capture_output=True,
         text=True,
         timeout=300,
