@@ -6,6 +6,7 @@ from __future__ import annotations
 import os
 import re
 import tempfile
+import textwrap
 import threading
 from pathlib import Path
 
@@ -152,8 +153,14 @@ BILLION_LAUGHS = "\n".join(
 
 
 def test_a_yaml_alias_bomb_is_refused_after_a_bounded_count(tmp_path: Path) -> None:
-    # Before: a 400-byte file made the loader allocate about 3 GiB.
-    path = _file(tmp_path, BILLION_LAUGHS)
+    # Before: PyYAML built the shared lists cheaply, then turning the polygon into an array
+    # expanded 9**9 values (gigabytes). Here the free-text name holds the bomb.
+    bomb = textwrap.indent(BILLION_LAUGHS, "  ")
+    text = X_TEXT.replace("name: X-Face H/D 0.25 r_p 2", f"name:\n{bomb}")
+    first_base = "- base:\n  - [0.5, -1.0]\n  - [0.5, 2.25]\n  - [-0.5, 2.0]\n  - [-0.5, -1.0]\n"
+    assert first_base in text
+    text = text.replace(first_base, "- base: *i\n", 1)
+    path = _file(tmp_path, text)
     assert path.stat().st_size < 1000
     _refused(path, f"MAX_YAML_VALUES = {MAX_YAML_VALUES}", "aliases count as what they repeat")
 
