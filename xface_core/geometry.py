@@ -33,6 +33,7 @@ __all__ = [
     "FaceDesign",
     "FaceKind",
     "custom_face",
+    "is_mirror_symmetric",
     "make_face",
     "s_face",
     "v_face",
@@ -86,7 +87,8 @@ class FaceDesign:
         Closed counter-clockwise polygons, body frames, units of D.
     mirror_symmetric : bool
         True when mirroring x -> -x maps the design onto itself, so that the outcome at
-        (x0, theta0) equals the outcome at (-x0, -theta0).
+        (x0, theta0) equals the outcome at (-x0, -theta0): the maps and atlases then simulate
+        half of their poses and mirror the rest. :func:`custom_face` checks the claim.
     """
 
     kind: FaceKind
@@ -347,11 +349,18 @@ def custom_face(
     counter-clockwise. ``mated_distance`` is the pivot-to-pivot distance L (in D) at which
     the parts are seated at equal angles; the mated parts must not overlap.
 
+    ``mirror_symmetric=True`` claims that mirroring x -> -x maps every layer's pair of
+    polygons onto a layer's pair (the X-Face's two layers swap, the V-Face's one maps onto
+    itself), so that the outcome at (x0, theta0) equals the one at (-x0, -theta0); the maps
+    then simulate only half of their poses. The claim is checked, vertex by vertex
+    (:func:`is_mirror_symmetric`): a false one would copy wrong outcomes into every map.
+
     Raises
     ------
     GeometryError
-        Layer counts differ, a polygon is not simple or has fewer than three vertices, or
-        the mated parts overlap.
+        Layer counts differ, a polygon is not simple, has fewer than three vertices or a
+        coordinate beyond +-:data:`MAX_DESIGN_RATIO` D, the mated parts overlap, or
+        ``mirror_symmetric`` is claimed for a design that is not.
 
     Examples
     --------
@@ -383,6 +392,13 @@ def custom_face(
         )
         if overlap > 1e-9:
             raise GeometryError(f"layer {i}: the mated parts overlap (area {overlap:.3g} D^2)")
+    if mirror_symmetric and not is_mirror_symmetric(base, moving):
+        raise GeometryError(
+            "mirror_symmetric is claimed but the design is not mirror-symmetric: mirroring "
+            "x -> -x does not map each layer's base and moving polygons onto a layer's (within "
+            f"{MIN_EDGE_LENGTH:g} D per vertex); the maps would copy wrong outcomes. Leave "
+            "mirror_symmetric false"
+        )
     return FaceDesign(
         kind="custom",
         h_over_d=float("nan"),
@@ -391,7 +407,7 @@ def custom_face(
         mated_distance=L,
         base_layers=base,
         moving_layers=moving,
-        mirror_symmetric=mirror_symmetric,
+        mirror_symmetric=bool(mirror_symmetric),
         body_depth=-min(float(p[:, 1].min()) for p in base),
     )
 
@@ -399,7 +415,7 @@ def custom_face(
 def _validated_polygon(points: npt.ArrayLike, name: str) -> FloatArray:
     try:
         arr = np.asarray(points, dtype=np.float64)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):  # OverflowError: an int beyond a float
         raise GeometryError(
             f"{name}: vertices must be numbers in an (n, 2) array (ragged or non-numeric input)"
         ) from None
@@ -407,6 +423,12 @@ def _validated_polygon(points: npt.ArrayLike, name: str) -> FloatArray:
         raise GeometryError(f"{name}: need an (n >= 3, 2) array of vertices, got {arr.shape}")
     if not np.all(np.isfinite(arr)):
         raise GeometryError(f"{name}: vertices must be finite")
+    if np.any(np.abs(arr) > MAX_DESIGN_RATIO):
+        # Far beyond any connector, and squared lengths in the engine overflow near 1e154.
+        raise GeometryError(
+            f"{name}: a vertex coordinate of {float(np.abs(arr).max()):.3g} D is beyond "
+            f"+-{MAX_DESIGN_RATIO:g} D (MAX_DESIGN_RATIO)"
+        )
     if arr.shape[0] > 3 and np.array_equal(arr[0], arr[-1]):
         # A closed ring (the first vertex repeated last) describes the same polygon.
         arr = arr[:-1]
@@ -424,3 +446,50 @@ def _validated_polygon(points: npt.ArrayLike, name: str) -> FloatArray:
     if not shapely.is_ccw(poly.exterior):
         arr = arr[::-1].copy()
     return np.ascontiguousarray(arr)
+
+
+def _same_ring(a: FloatArray, b: FloatArray, tol: float) -> bool:
+    """True when the rings ``a`` and ``b`` (same orientation) have the same vertices in the
+    same cyclic order, each within ``tol`` (D) of its partner, from any starting vertex."""
+    if a.shape != b.shape:
+        return False
+    starts = np.flatnonzero(np.max(np.abs(b - a[0]), axis=1) <= tol)
+    return any(np.max(np.abs(np.roll(b, -int(k), axis=0) - a)) <= tol for k in starts)
+
+
+def is_mirror_symmetric(
+    base_layers: Sequence[FloatArray], moving_layers: Sequence[FloatArray]
+) -> bool:
+    """Whether mirroring x -> -x maps the design onto itself: each layer's (base, moving)
+    pair of counter-clockwise polygons (body frames, D), mirrored, is the pair of one layer,
+    each layer used once, vertex for vertex within :data:`MIN_EDGE_LENGTH` (closer vertices
+    are one point, as for edges). Then the outcome at (x0, theta0) is the one at
+    (-x0, -theta0): in the world, x -> -x turns a pose (x0, theta0) into (-x0, -theta0)
+    and each part's body frame into its own mirror image.
+
+    Examples
+    --------
+    >>> d = x_face(0.25, 2.0)
+    >>> is_mirror_symmetric(d.base_layers, d.moving_layers)  # its two layers swap
+    True
+    >>> d = s_face(0.25, 2.0)
+    >>> is_mirror_symmetric(d.base_layers, d.moving_layers)  # point-, not mirror-symmetric
+    False
+    """
+    unmatched = list(range(len(base_layers)))
+    for base, moving in zip(base_layers, moving_layers, strict=True):
+        # Mirroring reverses a ring's orientation: reverse the order to keep it CCW.
+        mirrored = (base[::-1] * (-1.0, 1.0), moving[::-1] * (-1.0, 1.0))
+        match = next(
+            (
+                j
+                for j in unmatched
+                if _same_ring(mirrored[0], base_layers[j], MIN_EDGE_LENGTH)
+                and _same_ring(mirrored[1], moving_layers[j], MIN_EDGE_LENGTH)
+            ),
+            None,
+        )
+        if match is None:
+            return False
+        unmatched.remove(match)
+    return True

@@ -92,7 +92,7 @@ def test_impossible_geometry_in_a_file_is_a_geometry_error_naming_the_file(tmp_p
 
 def test_ragged_vertices_in_a_file_are_a_geometry_error(tmp_path: Path) -> None:
     path = _write(tmp_path, _doc(layers=[{"base": [[0, 0], [1]], "moving": SQUARE}]))
-    with pytest.raises(GeometryError, match="ragged or non-numeric"):
+    with pytest.raises(GeometryError, match="vertex 1 must be a pair of numbers"):
         xf.load_face(path)
 
 
