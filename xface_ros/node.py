@@ -342,8 +342,7 @@ class _Predictor(Node):
         else:
             self._validated = (values, config)
             return SetParametersResult(successful=True)
-        names = ", ".join(p.name for p in params)
-        self.get_logger().warning(f"parameter change refused ({names}): {reason}")
+        self.get_logger().warning(f"parameter change refused: {reason}")
         return SetParametersResult(successful=False, reason=reason)
 
     def _apply_parameters(self, params: list[Parameter]) -> None:
