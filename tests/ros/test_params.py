@@ -373,3 +373,10 @@ def test_an_unknown_parameter_is_named_with_the_closest_known_name() -> None:
 def test_no_unknown_parameter_no_message() -> None:
     names = [spec.name for spec in SPECS]
     assert config_module.unknown_parameters_message(names, [*names, "use_sim_time"]) is None
+
+
+def test_docs_give_the_face_file_time_bound_the_node_uses() -> None:
+    docs = (ROOT / "docs" / "ros.md").read_text(encoding="utf-8")
+    bound = config_module.FACE_FILE_TIMEOUT_S
+    assert f"a read not over after {bound:g} s is refused" in docs
+    assert f"took more than {bound:g} s" in docs
