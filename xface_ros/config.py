@@ -10,10 +10,13 @@ module and its tests can use the config where ROS is not installed.
 
 from __future__ import annotations
 
+import difflib
 import math
 import os
+import stat
+import threading
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -27,6 +30,7 @@ from xface_core.physics import Physics
 __all__ = [
     "CUSTOM_FACE",
     "DESIGN_PARAMETERS",
+    "FACE_FILE_TIMEOUT_S",
     "SPECS",
     "SPEC_BY_NAME",
     "ConfigError",
@@ -35,9 +39,12 @@ __all__ = [
     "ParamValue",
     "config_from_values",
     "default_record_path",
+    "load_face_file",
     "normalise_frame_id",
+    "not_a_regular_file",
     "params_file_applied",
     "params_file_paths",
+    "unknown_parameters_message",
 ]
 
 ParamValue = bool | int | float | str
@@ -333,16 +340,128 @@ def _base_frame(value: Any) -> str:
     return frame
 
 
+# --- face files: read with a time bound, every failure a refusal ------------------------------
+
+#: The longest the node waits for a face file to load (s) before refusing it. The read runs on
+#: a thread of its own, so the executor (services, parameters, diagnostics) waits at most this
+#: long on a file that blocks (a path swapped for a FIFO after the check below, a hung network
+#: mount) or takes long to parse (a deeply nested file takes seconds to refuse).
+FACE_FILE_TIMEOUT_S = 10.0
+
+#: Held while a face file is read; a read that timed out keeps it until it ends, so a file
+#: that never ends ties up one thread at most, however often it is set again.
+_face_file_reading = threading.Lock()
+
+#: The longest reason (characters) quoted from an unexpected exception.
+_REASON_CHARS = 300
+
+
+def not_a_regular_file(path: str) -> str | None:
+    """What ``path`` is, in words ("a FIFO", "a character device", ...), when it exists and is
+    not a regular file; None for a regular file and for a path that cannot be stat-ed (its
+    reader then says why). ``stat`` neither opens the file nor blocks, where opening a FIFO
+    blocks until a writer comes and reading a device such as /dev/zero never ends.
+
+    >>> not_a_regular_file("/dev/null")
+    'a character device'
+    """
+    try:
+        mode = os.stat(path).st_mode
+    except (OSError, ValueError):  # ValueError: a NUL in the path
+        return None
+    if stat.S_ISREG(mode):
+        return None
+    kinds = (
+        (stat.S_ISDIR, "a directory"),
+        (stat.S_ISFIFO, "a FIFO"),
+        (stat.S_ISCHR, "a character device"),
+        (stat.S_ISBLK, "a block device"),
+        (stat.S_ISSOCK, "a socket"),
+    )
+    return next((name for is_kind, name in kinds if is_kind(mode)), "a special file")
+
+
+def _one_line(text: str, max_chars: int | None = None) -> str:
+    """``text`` on one line (yaml's messages span several), cut to ``max_chars``."""
+    line = " ".join(text.split())
+    if max_chars is not None and len(line) > max_chars:
+        line = line[: max_chars - 3] + "..."
+    return line
+
+
+def _load_failure(path: str, exc: BaseException) -> ConfigError:
+    """The refusal for a face file the loader raised ``exc`` on, in one line."""
+    if isinstance(exc, XfaceError):  # the core's own reason, which names the file
+        return ConfigError(f"face_file: {_one_line(str(exc))}")
+    if isinstance(exc, RecursionError):
+        why = "it is nested too deeply to read"
+    elif isinstance(exc, MemoryError):
+        why = "it is too large to read (out of memory)"
+    else:
+        text = _one_line(str(exc), _REASON_CHARS)
+        why = f"{type(exc).__name__}: {text}" if text else type(exc).__name__
+    return ConfigError(f"face_file: cannot load the face file {path!r}: {why}")
+
+
+def load_face_file(path: str, *, timeout_s: float | None = None) -> FaceDesign:
+    """The design in the face file ``path``, read with a time bound; every failure a
+    :class:`ConfigError` whose message starts ``face_file:`` and gives the reason.
+
+    Refused: a path that is not a regular file (at once, without opening it), a read that is
+    not over after ``timeout_s`` (s; None: :data:`FACE_FILE_TIMEOUT_S`), an earlier timed-out
+    read still running, and anything the loader raises.
+    """
+    if timeout_s is None:
+        timeout_s = FACE_FILE_TIMEOUT_S
+    kind = not_a_regular_file(path)
+    if kind is not None:
+        raise ConfigError(
+            f"face_file: {path!r} is {kind}, not a regular file: a face file is a YAML file "
+            "(docs/facefile.md)"
+        )
+    if not _face_file_reading.acquire(blocking=False):
+        raise ConfigError(
+            f"face_file: an earlier face file is still being read (it took more than "
+            f"{timeout_s:g} s); {path!r} is not read until it ends"
+        )
+    outcome: list[FaceDesign | BaseException] = []
+
+    def read() -> None:
+        try:
+            outcome.append(load_face(path))
+        # Broad on purpose: this is the node's boundary with a user's file. load_face raises
+        # FaceFileError for what it knows, but yaml and the checks under it can raise anything
+        # (RecursionError on deep nesting, ValueError on a 5,000-digit number, MemoryError,
+        # OSError...), and an exception here would otherwise end the node.
+        except Exception as exc:
+            outcome.append(exc)
+        finally:
+            _face_file_reading.release()
+
+    reader = threading.Thread(target=read, name="xface_face_file", daemon=True)
+    try:
+        reader.start()
+    except RuntimeError as exc:  # no thread to be had: nothing was read
+        _face_file_reading.release()
+        raise ConfigError(f"face_file: cannot read {path!r} now: {exc}") from exc
+    reader.join(timeout_s)
+    if not outcome:
+        raise ConfigError(
+            f"face_file: reading the face file {path!r} took more than {timeout_s:g} s"
+        )
+    result = outcome[0]
+    if isinstance(result, BaseException):
+        raise _load_failure(path, result) from result
+    return result
+
+
 def _design(face: str, values: Mapping[str, Any]) -> FaceDesign:
     """The connector in metres, or the core's reason why it cannot exist."""
     if face == CUSTOM_FACE:
         path = str(values["face_file"])
         if not path:
             raise ConfigError("face custom needs face_file: the path of a face file")
-        try:
-            return load_face(path)
-        except XfaceError as exc:
-            raise ConfigError(f"face_file: {exc}") from exc
+        return load_face_file(path)
     try:
         return make_face(
             face, float(values["h_over_d"]), float(values["r_p"]), width=float(values["width_m"])
@@ -464,3 +583,29 @@ def params_file_applied(
         name in node_overrides and node_overrides[name] == value
         for name, value in file_values.items()
     )
+
+
+# --- parameters the node does not have ------------------------------------------------------
+
+
+def unknown_parameters_message(names: Iterable[str], known: Iterable[str]) -> str | None:
+    """One warning line for parameters set for the node (params file, ``-p``) that it does not
+    have, each with the closest known name when one is close (None: every name is known).
+
+    rclpy drops such an override without a word, so a misspelt name would silently leave its
+    parameter at the default.
+
+    >>> unknown_parameters_message(["widht_m", "face"], ["face", "width_m"])
+    'unknown parameters, ignored: widht_m (did you mean width_m?)'
+    >>> unknown_parameters_message(["face"], ["face"]) is None
+    True
+    """
+    known_names = sorted(set(known))
+    unknown = sorted(set(names) - set(known_names))
+    if not unknown:
+        return None
+    described = []
+    for name in unknown:
+        close = difflib.get_close_matches(name, known_names, n=1)
+        described.append(f"{name} (did you mean {close[0]}?)" if close else name)
+    return f"unknown parameters, ignored: {', '.join(described)}"

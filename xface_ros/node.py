@@ -63,7 +63,13 @@ from std_msgs.msg import Bool, Header
 from visualization_msgs.msg import MarkerArray
 
 from xface_ros.atlas_keeper import AtlasKeeper
-from xface_ros.config import CUSTOM_FACE, params_file_applied, params_file_paths
+from xface_ros.config import (
+    CUSTOM_FACE,
+    not_a_regular_file,
+    params_file_applied,
+    params_file_paths,
+    unknown_parameters_message,
+)
 from xface_ros.conversions import (
     markers_msg,
     ns_to_stamp,
@@ -79,6 +85,7 @@ from xface_ros.decision import PoseInput, Rejected, Verdict, evaluate_query
 from xface_ros.diagnostics import diagnostic_array, predictor_status
 from xface_ros.params import (
     DESIGN_PARAMETERS,
+    SPECS,
     ConfigError,
     NodeConfig,
     config_from_values,
@@ -143,11 +150,17 @@ class _Predictor(Node):
         """``params_files``: the ``--params-file`` paths of the command line, to warn when none
         of their values reached this node (see :meth:`_warn_unapplied_params_files`)."""
         super().__init__(NODE_NAME, **node_kwargs)
+        # First: a misspelt name may be why the values below are refused.
+        self._warn_unknown_parameters()
         # Raises (and so refuses to start) on out-of-range or inconsistent overrides.
         self._config: NodeConfig = declare_parameters(self)
         self._warn_unapplied_params_files(params_files)
         self._status_name = status_name(self.get_fully_qualified_name())
         self._config_lock = threading.Lock()
+        # The values of the last accepted change and the config validated from them: applied
+        # as it is, so a face file is read once per change (a second read could find another
+        # file, or one that fails).
+        self._validated: tuple[dict[str, Any], NodeConfig] | None = None
         self.add_on_set_parameters_callback(self._validate_parameters)
         self.add_post_set_parameters_callback(self._apply_parameters)
         self._publishers_made: list[Any] = []
@@ -302,17 +315,45 @@ class _Predictor(Node):
                     f"(key the file with '/**:' or '{self.get_fully_qualified_name()}:')"
                 )
 
+    def _warn_unknown_parameters(self) -> None:
+        """Warn, in one line, about overrides (params file, ``-p``) this node has no parameter
+        for: rclpy drops them without a word, so a misspelt ``widht_m`` would leave
+        ``width_m`` at its default. rclpy keeps the overrides rcl matched to this node in
+        ``_parameter_overrides`` (no public accessor in Jazzy). Known: this node's parameters
+        and those rclpy declared already (``use_sim_time``...)."""
+        known = [*(spec.name for spec in SPECS), *self.list_parameters([], 0).names]
+        message = unknown_parameters_message(self._parameter_overrides, known)
+        if message is not None:
+            self.get_logger().warning(message)
+
     def _validate_parameters(self, params: list[Parameter]) -> SetParametersResult:
+        """Accept a change only if the whole set after it makes a config; else refuse it with
+        the reason (returned and logged) and keep the config the node runs with."""
+        self._validated = None
+        values = merged_values(current_values(self), params)
         try:
-            config_from_values(merged_values(self.config.values(), params))
+            config = config_from_values(values)
         except ConfigError as exc:
-            return SetParametersResult(successful=False, reason=str(exc))
-        return SetParametersResult(successful=True)
+            reason = str(exc)
+        # Broad on purpose: an exception out of this callback ends the node (rclpy raises it
+        # out of spin); whatever a value makes the validation raise, it is the value's fault.
+        except Exception as exc:
+            reason = f"cannot validate: {type(exc).__name__}: {exc}"
+        else:
+            self._validated = (values, config)
+            return SetParametersResult(successful=True)
+        self.get_logger().warning(f"parameter change refused: {reason}")
+        return SetParametersResult(successful=False, reason=reason)
 
     def _apply_parameters(self, params: list[Parameter]) -> None:
+        validated, self._validated = self._validated, None
+        values = current_values(self)
         try:
-            config = config_from_values(current_values(self))
-        except ConfigError as exc:  # validated already; keep the old config if it happens
+            if validated is not None and validated[0] == values:
+                config = validated[1]
+            else:
+                config = config_from_values(values)
+        except Exception as exc:  # validated already; keep the old config if it happens
             self.get_logger().error(f"parameter change not applied: {exc}")
             return
         with self._config_lock:
@@ -593,7 +634,12 @@ def params_file_problem(path: str) -> str | None:
 
     Checked before rclpy: rcl refuses a missing file or broken YAML with a traceback of its
     own, and runs without a word on a file that sets nothing (a lone string, nothing at all).
+    A FIFO or a device is refused without opening it (opening a FIFO blocks until a writer
+    comes).
     """
+    kind = not_a_regular_file(path)
+    if kind is not None:
+        return f"cannot read parameter file {path}: it is {kind}, not a regular file"
     try:
         with open(path, encoding="utf-8") as stream:
             data = yaml.safe_load(stream)
@@ -606,6 +652,13 @@ def params_file_problem(path: str) -> str | None:
         where = "" if mark is None else f" at line {mark.line + 1}, column {mark.column + 1}"
         problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
         return f"parameter file {path} is not valid YAML: {problem}{where}"
+    except RecursionError:
+        return f"parameter file {path} is nested too deeply to read"
+    # yaml raises more than YAMLError on hostile text: ValueError on an integer of more than
+    # 4,300 digits (Python's limit), MemoryError... Any of them is the file's fault.
+    except Exception as exc:
+        text = " ".join(str(exc).split())
+        return f"cannot read parameter file {path}: {type(exc).__name__}: {text}"
     layout = params_layout_problem(data)
     if layout is not None:
         return f"parameter file {path} is not in ROS's layout: {layout}"

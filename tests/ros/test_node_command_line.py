@@ -2,19 +2,24 @@
 
 rcl refuses a missing file or broken YAML with a traceback (exit code 1) and runs without a
 word on a file that is YAML but sets nothing; the node checks its ``--params-file`` arguments
-before rclpy starts. Both ways of starting it are tested: ``python -m xface_ros`` and the
-``xface-predictor`` command the install puts beside the interpreter.
+before rclpy starts (a FIFO or a device without opening it). Both ways of starting it are
+tested: ``python -m xface_ros`` and the ``xface-predictor`` command the install puts beside
+the interpreter. A parameter the node does not have (a misspelt name) is warned about.
 """
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
+import threading
+import time
 from pathlib import Path
+from typing import Any
 
 import pytest
 
-from xface_ros.node import params_layout_problem
+from xface_ros.node import params_file_problem, params_layout_problem
 
 pytestmark = pytest.mark.ros
 
@@ -113,3 +118,62 @@ def test_the_layout_check_takes_what_rcl_takes_and_names_what_is_off(
     else:
         assert found is not None
         assert found.startswith(problem)
+
+
+#: How long a test waits for a check that should answer at once before it unblocks the check
+#: itself (the test then fails): a hang guard, not a timing assertion.
+HANG_GUARD_S = 30.0
+
+
+def test_a_fifo_parameter_file_is_refused_without_being_opened(tmp_path: Path) -> None:
+    fifo = tmp_path / "params.yaml"
+    os.mkfifo(fifo)
+    problem: list[str | None] = []
+    check = threading.Thread(target=lambda: problem.append(params_file_problem(str(fifo))))
+    check.start()
+    check.join(HANG_GUARD_S)
+    if check.is_alive():
+        with open(fifo, "w", encoding="utf-8"):  # what a blocked open(fifo) waits for
+            pass
+        check.join(HANG_GUARD_S)
+        pytest.fail("the parameter file check blocked on a FIFO")
+    assert problem == [f"cannot read parameter file {fifo}: it is a FIFO, not a regular file"]
+
+
+@pytest.mark.parametrize(
+    ("text", "says"),
+    [
+        ("/**:\n  ros__parameters:\n    face: " + "[" * 10_000 + "]" * 10_000 + "\n",
+         "parameter file {path} is nested too deeply to read"),
+        ("/**:\n  ros__parameters:\n    width_m: " + "9" * 5000 + "\n",
+         "cannot read parameter file {path}: ValueError: Exceeds the limit (4300 digits)"),
+    ],
+    ids=["nested-10000-deep", "5000-digit-number"],
+)  # fmt: skip
+def test_a_hostile_parameter_file_is_refused_in_one_line(
+    text: str, says: str, tmp_path: Path
+) -> None:
+    path = tmp_path / "hostile.yaml"
+    path.write_text(text, encoding="utf-8")
+    problem = params_file_problem(str(path))
+    assert problem is not None
+    assert problem.startswith(says.format(path=path)), problem
+    assert len(problem.splitlines()) == 1
+
+
+def test_dev_zero_as_a_parameter_file_is_refused_without_being_read() -> None:
+    assert params_file_problem("/dev/zero") == (
+        "cannot read parameter file /dev/zero: it is a character device, not a regular file"
+    )
+
+
+def test_a_misspelt_parameter_is_warned_about_with_the_closest_name(launch: Any) -> None:
+    running = launch(wait=False, widht_m=0.1)
+    deadline = time.monotonic() + 120.0  # rclpy's import and init, on a busy machine
+    warning = "unknown parameters, ignored: widht_m (did you mean width_m?)"
+    while warning not in running.node.log():
+        if running.node.process.poll() is not None or time.monotonic() > deadline:
+            pytest.fail(f"no warning about widht_m:\n{running.node.log()}")
+        time.sleep(0.1)
+    running.client.wait_for_node(running.node)  # and the node runs on
+    assert running.node.log().count("unknown parameters") == 1

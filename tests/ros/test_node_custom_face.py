@@ -1,16 +1,23 @@
 """A connector of the user's own over real DDS: ``face: custom`` with a ``face_file``.
 
 The node's predictions for a face file equal the core's for the same file, and a file the
-node cannot use is refused with its reason while the node keeps its design.
+node cannot use is refused with its reason while the node keeps its design: at run time also
+a hostile one (nested 10,000 deep, a 5,000-digit number, /dev/zero, a FIFO), which once ended
+the node or blocked its executor; at start, one line and exit code 2.
 """
 
 from __future__ import annotations
 
 import math
+import os
+import resource
+import subprocess
+import sys
 from pathlib import Path
 from typing import Any
 
 import pytest
+import yaml
 
 import xface_core as xf
 from xface_core.frames import PlanarPose, planar_yaw, relative_pose_to_start, wrap_angle
@@ -63,3 +70,87 @@ def test_a_face_file_that_cannot_be_read_is_refused_and_the_design_kept(
     assert not results[0].successful
     assert "cannot read the face file" in results[0].reason
     assert running.client.get_parameter("face_file") == str(face_file)
+
+
+# --- hostile face files: refused with a reason, never the end of the node -------------------
+
+
+def hostile_face_files(tmp_path: Path, good: Path) -> dict[str, str]:
+    """Face files the node must refuse, by what is wrong with them."""
+    deep = tmp_path / "deep.yaml"
+    deep.write_text("[" * 10_000 + "]" * 10_000 + "\n", encoding="utf-8")
+    wide = tmp_path / "wide.yaml"
+    wide.write_text(
+        good.read_text(encoding="utf-8").replace(f"width: {WIDTH}", "width: " + "9" * 5000),
+        encoding="utf-8",
+    )
+    assert "9" * 5000 in wide.read_text(encoding="utf-8")
+    fifo = tmp_path / "fifo.yaml"
+    os.mkfifo(fifo)
+    return {
+        "nested 10,000 deep": str(deep),
+        "a 5,000-digit width": str(wide),
+        "/dev/zero": "/dev/zero",
+        "a FIFO": str(fifo),
+        "missing": str(tmp_path / "missing.yaml"),
+    }
+
+
+def predicted_status(running: Any, x0_widths: float, theta0: float) -> dict[str, str]:
+    """Stream a pose and return its status's values."""
+    c = running.client
+    yaw = wrap_angle(theta0 + math.pi)
+    _sent, status = c.publish_until_status(lambda: c.pose_msg(x0_widths * WIDTH, Y_START, yaw))
+    values: dict[str, str] = c.values(status)
+    return values
+
+
+@pytest.mark.slow
+def test_hostile_face_files_at_run_time_are_refused_and_the_node_runs_on_its_design(
+    launch: Any, face_file: Path, tmp_path: Path
+) -> None:
+    running = launch(face="custom", face_file=str(face_file), compute_margins=False)
+    c = running.client
+    before = predicted_status(running, *POSES[0])
+    for what, path in hostile_face_files(tmp_path, face_file).items():
+        results = c.set_parameters(face_file=path)
+        assert not results[0].successful, what
+        assert results[0].reason.startswith("face_file: "), (what, results[0].reason)
+        assert c.get_parameter("face_file") == str(face_file), what
+        diagnostics_seen = c.diagnostics.count()
+        c.diagnostics.wait_for(lambda _msg, n=diagnostics_seen: c.diagnostics.count() > n)
+        after = predicted_status(running, *POSES[0])  # the old design's prediction
+        assert after["outcome"] == before["outcome"], what
+        assert after["final_phi_m_rad"] == before["final_phi_m_rad"], what
+        assert after["final_y_m"] == before["final_y_m"], what
+    assert c.set_parameters(min_margin=0.001)[0].successful  # parameters still work
+    assert running.node.log().count("parameter change refused: face_file: ") == 5
+    assert running.node.stop() == 0
+
+
+@pytest.mark.parametrize(
+    "what", ["nested 10,000 deep", "a 5,000-digit width", "/dev/zero", "a FIFO", "missing"]
+)
+def test_a_hostile_face_file_at_start_is_one_line_and_exit_code_2(
+    what: str, face_file: Path, tmp_path: Path, ros_domain_id: int
+) -> None:
+    path = hostile_face_files(tmp_path, face_file)[what]
+    params = tmp_path / "params.yaml"
+    overrides = {"face": "custom", "face_file": path}
+    params.write_text(yaml.safe_dump({"/**": {"ros__parameters": overrides}}), encoding="utf-8")
+    # The suite's conftest put discovery on loopback in os.environ; the domain is this test's.
+    env = {**os.environ, "ROS_DOMAIN_ID": str(ros_domain_id)}
+    run = subprocess.run(
+        [sys.executable, "-m", "xface_ros", "--ros-args", "--params-file", str(params)],
+        cwd=tmp_path, env=env, capture_output=True, text=True, timeout=120, check=False,
+        preexec_fn=limit_memory,
+    )  # fmt: skip
+    assert run.returncode == 2, run.stderr
+    assert len(run.stderr.splitlines()) == 1, run.stderr
+    assert run.stderr.startswith("xface_predictor: refusing to start: face_file: "), run.stderr
+
+
+def limit_memory() -> None:
+    """In the node's process: at most 4 GiB of address space (it needs about 1.2), so a node
+    that reads /dev/zero fails soon instead of filling the machine's memory."""
+    resource.setrlimit(resource.RLIMIT_AS, (4 << 30, 4 << 30))

@@ -3,17 +3,24 @@
 from __future__ import annotations
 
 import math
+import os
+import threading
+import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import pytest
 import yaml
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.parameter import Parameter
 
 from xface_core.facefile import save_face
 from xface_core.geometry import make_face
-from xface_ros.config import normalise_frame_id, params_file_applied, params_file_paths
+from xface_ros import config as config_module
+from xface_ros.config import NodeConfig, normalise_frame_id, params_file_applied, params_file_paths
 from xface_ros.params import (
     DESIGN_PARAMETERS,
     SPECS,
@@ -202,3 +209,174 @@ def test_a_custom_face_takes_its_design_and_width_from_the_file(tmp_path: Path) 
     assert config.face == "custom"
     assert config.width_m == 0.08
     assert config.design.mated_distance == design.mated_distance
+
+
+# --- a face file the node cannot use is a refusal, never a crash or a hang ------------------
+
+
+def custom(face_file: str) -> dict[str, Any]:
+    return {**defaults(), "face": "custom", "face_file": face_file}
+
+
+#: How long a test waits for a face file read that should be refused at once before it
+#: unblocks the read itself (the test then fails): a hang guard, not a timing assertion.
+HANG_GUARD_S = 30.0
+
+
+def outcome_unless_it_hangs(
+    values: dict[str, Any], unblock: Callable[[], None]
+) -> NodeConfig | BaseException:
+    """``config_from_values(values)``'s config or exception; if it is still running after
+    ``HANG_GUARD_S``, ``unblock()`` is called to end it and the test fails."""
+    outcome: list[NodeConfig | BaseException] = []
+
+    def run() -> None:
+        try:
+            outcome.append(config_from_values(values))
+        except BaseException as exc:
+            outcome.append(exc)
+
+    thread = threading.Thread(target=run, daemon=True)
+    thread.start()
+    thread.join(HANG_GUARD_S)
+    if thread.is_alive():
+        unblock()
+        thread.join(HANG_GUARD_S)
+        pytest.fail("reading the face file blocked")
+    return outcome[0]
+
+
+def test_a_fifo_face_file_is_refused_without_being_opened(tmp_path: Path) -> None:
+    fifo = tmp_path / "face.yaml"
+    os.mkfifo(fifo)
+
+    def open_a_writer() -> None:  # what a blocked open(fifo) waits for
+        with open(fifo, "w", encoding="utf-8"):
+            pass
+
+    result = outcome_unless_it_hangs(custom(str(fifo)), open_a_writer)
+    assert isinstance(result, ConfigError), result
+    assert str(result).startswith(f"face_file: {str(fifo)!r} is a FIFO, not a regular file")
+
+
+@pytest.mark.parametrize(
+    ("path", "kind"), [("/dev/zero", "a character device"), (".", "a directory")]
+)
+def test_a_device_or_directory_face_file_is_refused_without_being_read(
+    path: str, kind: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    def must_not_read(_path: Any) -> Any:
+        raise AssertionError("the face file was read")
+
+    monkeypatch.setattr(config_module, "load_face", must_not_read)
+    with pytest.raises(ConfigError, match=f"^face_file: '{path}' is {kind}, not a regular file"):
+        config_from_values(custom(path))
+
+
+def test_a_deeply_nested_face_file_is_refused_with_the_reason(tmp_path: Path) -> None:
+    deep = tmp_path / "deep.yaml"
+    deep.write_text("[" * 10_000 + "]" * 10_000 + "\n", encoding="utf-8")
+    with pytest.raises(ConfigError, match=r"^face_file: .*deep\.yaml.*: it is nested too deeply"):
+        config_from_values(custom(str(deep)))
+
+
+def test_a_face_file_with_a_5000_digit_width_is_refused_with_the_reason(tmp_path: Path) -> None:
+    good = save_face(make_face("X", 0.25, 1.0, width=0.05), tmp_path / "good.yaml")
+    wide = tmp_path / "wide.yaml"
+    wide.write_text(
+        good.read_text(encoding="utf-8").replace("width: 0.05", "width: " + "9" * 5000),
+        encoding="utf-8",
+    )
+    with pytest.raises(ConfigError, match=r"^face_file: .*wide\.yaml") as refused:
+        config_from_values(custom(str(wide)))
+    assert "\n" not in str(refused.value)
+
+
+def test_a_face_file_that_is_not_yaml_is_refused_on_one_line(tmp_path: Path) -> None:
+    broken = tmp_path / "broken.yaml"
+    broken.write_text("xface_face: 1\nlayers: [[\n", encoding="utf-8")
+    with pytest.raises(ConfigError, match=r"^face_file: .*broken\.yaml") as refused:
+        config_from_values(custom(str(broken)))
+    assert "\n" not in str(refused.value)
+
+
+@settings(max_examples=50)
+@given(
+    error=st.sampled_from(
+        [RecursionError, MemoryError, ValueError, OSError, KeyError, TypeError, RuntimeError]
+    ),
+    message=st.text(),
+)
+def test_whatever_loading_a_face_file_raises_is_a_one_line_refusal_naming_the_file(
+    error: type[Exception], message: str
+) -> None:
+    def load_face(_path: Any) -> Any:
+        raise error(message)
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(config_module, "load_face", load_face)
+        with pytest.raises(ConfigError) as refused:
+            config_from_values(custom(__file__))  # a regular file: the loader is reached
+    reason = str(refused.value)
+    assert reason.startswith(f"face_file: cannot load the face file {__file__!r}: ")
+    assert len(reason.splitlines()) == 1
+
+
+def test_a_face_file_that_does_not_load_in_time_is_refused_and_reads_one_at_a_time(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    good = save_face(make_face("V", 0.5, 1.0, width=0.08), tmp_path / "v.yaml")
+    release = threading.Event()
+    real_load_face = config_module.load_face
+
+    def slow_load_face(path: Any) -> Any:
+        release.wait(HANG_GUARD_S)
+        return real_load_face(path)
+
+    monkeypatch.setattr(config_module, "load_face", slow_load_face)
+    monkeypatch.setattr(config_module, "FACE_FILE_TIMEOUT_S", 0.1, raising=False)
+    guard = threading.Timer(HANG_GUARD_S, release.set)  # ends a read that did not time out
+    guard.start()
+    try:
+        with pytest.raises(ConfigError, match=r"^face_file: reading the face file .* took more"):
+            config_from_values(custom(str(good)))
+        # The first read still runs: the next waits for it, not beside it.
+        with pytest.raises(ConfigError, match=r"^face_file: an earlier face file is still being"):
+            config_from_values(custom(str(good)))
+    finally:
+        release.set()
+        guard.cancel()
+    monkeypatch.setattr(config_module, "FACE_FILE_TIMEOUT_S", HANG_GUARD_S, raising=False)
+    deadline = time.monotonic() + HANG_GUARD_S
+    while True:  # once the first read has ended, the file loads
+        try:
+            assert config_from_values(custom(str(good))).width_m == 0.08
+            break
+        except ConfigError:
+            if time.monotonic() > deadline:
+                raise
+            time.sleep(0.01)
+
+
+# --- parameters the node does not have -------------------------------------------------------
+
+
+def test_an_unknown_parameter_is_named_with_the_closest_known_name() -> None:
+    message = config_module.unknown_parameters_message(
+        ["widht_m", "face", "zzz_unrelated"], [spec.name for spec in SPECS]
+    )
+    assert message == (
+        "unknown parameters, ignored: widht_m (did you mean width_m?), zzz_unrelated"
+    )
+
+
+def test_no_unknown_parameter_no_message() -> None:
+    names = [spec.name for spec in SPECS]
+    assert config_module.unknown_parameters_message(names, [*names, "use_sim_time"]) is None
+
+
+def test_docs_give_the_face_file_time_bound_the_node_uses() -> None:
+    docs = (ROOT / "docs" / "ros.md").read_text(encoding="utf-8")
+    bound = config_module.FACE_FILE_TIMEOUT_S
+    assert f"a read not over after {bound:g} s is refused" in docs
+    assert f"took more than {bound:g} s" in docs
