@@ -372,6 +372,7 @@ def build_atlas(
     threads: int | None = None,
     every_flip: bool = False,
     cancel: Callable[[], bool] | None = None,
+    on_cache_problem: Callable[[str], object] | None = None,
 ) -> AcceptanceAtlas:
     """Build (or load from ``cache_dir``) the acceptance atlas of a design and physics.
 
@@ -415,6 +416,10 @@ def build_atlas(
         second); when it returns True the build stops with :class:`~.errors.Cancelled` and
         nothing is saved. For a caller that may stop wanting the atlas (the ROS node at
         shutdown or after a design change).
+    on_cache_problem : callable, optional
+        Told, in one sentence naming the file and the reason, of a cache file not used or
+        not written, instead of an :class:`~xface_core.atlas.cache.AtlasCacheWarning`: for a
+        caller with a logger of its own (the ROS node).
 
     Examples
     --------
@@ -438,26 +443,19 @@ def build_atlas(
         raise XfaceValueError(f"angle_range must be <= 2 pi, got {angle_range!r}")
     nx, nt = _grid_size(x_range, dx, t_range, dt, coarse_stride, max_nodes)
     key = atlas_key(
-        design,
-        phys,
-        lateral_step=dx,
-        angle_step=dt,
-        lateral_range=x_range,
-        angle_range=t_range,
-        coarse_stride=coarse_stride,
-    )
+        design, phys, lateral_step=dx, angle_step=dt, lateral_range=x_range,
+        angle_range=t_range, coarse_stride=coarse_stride,
+    )  # fmt: skip
     # Integer multiples: mirrored nodes are exact negatives (the mirror fill relies on it).
     x_d = np.arange(-nx, nx + 1).astype(np.float64) * dx
     th = np.arange(-nt, nt + 1).astype(np.float64) * dt
     path = None if cache_dir is None else cache_path(cache_dir, key)
     if path is not None:
-        loaded = _load_or_warn(path, design, phys, key, x_d, th)
+        loaded = _load_or_warn(path, design, phys, key, x_d, th, on_cache_problem)
         if loaded is not None:
             if every_flip and bisect_every_flip(loaded, threads=threads, cancel=cancel):
-                _save_or_warn(loaded, path)
+                _save_or_warn(loaded, path, on_cache_problem)
             return loaded
-        if is_directory(path):
-            path = None  # warned: a directory is not replaced
 
     t0 = time.perf_counter()
     outcomes, simulated = _refine(design, x_d, th, coarse_stride, phys, threads, cancel)
@@ -475,17 +473,24 @@ def build_atlas(
         bisect_every_flip(atlas, threads=threads, cancel=cancel)
         atlas = replace(atlas, build_seconds=time.perf_counter() - t0)  # the flips as well
     if path is not None:
-        _save_or_warn(atlas, path)
+        _save_or_warn(atlas, path, on_cache_problem)
     return atlas
 
 
 def _load_or_warn(
-    path: Path, design: FaceDesign, physics: Physics, key: str, x_d: FloatArray, th: FloatArray
+    path: Path,
+    design: FaceDesign,
+    physics: Physics,
+    key: str,
+    x_d: FloatArray,
+    th: FloatArray,
+    report: Callable[[str], object] | None,
 ) -> AcceptanceAtlas | None:
     """The cached atlas at ``path`` for ``key`` on the grid ``x_d`` x ``th``, or None: when
-    there is no file, or (with one :class:`AtlasCacheWarning` naming the file and the reason)
-    when the file fails a check of :func:`~xface_core.atlas.cache.read_atlas_file` or holds
-    flips that do not fit the grid. The caller rebuilds it and replaces the file."""
+    there is no file, or when the file fails a check of
+    :func:`~xface_core.atlas.cache.read_atlas_file` or holds flips that do not fit the grid
+    (then with one :class:`AtlasCacheWarning` naming the file and the reason, or that
+    sentence to ``report``). The caller rebuilds it and replaces the file."""
     try:
         data = read_atlas_file(path, key=key, x0=x_d, theta0=th, start_clearance=START_CLEARANCE)
         atlas = AcceptanceAtlas(
@@ -506,19 +511,23 @@ def _load_or_warn(
         return None  # nothing cached yet (the folder may not exist, or be a file: the save says)
     except UnusableAtlasFile as exc:
         then = "built, not cached" if is_directory(path) else "rebuilt and replaced"
-        warn_cache(f"atlas cache file {path} not used: {exc}; the atlas is {then}")
+        warn_cache(f"atlas cache file {path} not used: {exc}; the atlas is {then}", report)
         return None
     return atlas
 
 
-def _save_or_warn(atlas: AcceptanceAtlas, path: Path) -> None:
+def _save_or_warn(
+    atlas: AcceptanceAtlas, path: Path, report: Callable[[str], object] | None
+) -> None:
     """Save ``atlas`` to ``path``; a folder that cannot be written is one
-    :class:`AtlasCacheWarning` (the atlas is still there for the caller, the next run builds
-    it again)."""
+    :class:`AtlasCacheWarning` or sentence to ``report`` (the atlas is still there for the
+    caller, the next run builds it again). A directory there is left alone (warned when read)."""
+    if is_directory(path):
+        return
     try:
         atlas.save(path)
     except OSError as exc:
-        warn_cache(f"atlas cache file {path} not written ({exc}); the atlas is not kept")
+        warn_cache(f"atlas cache file {path} not written ({exc}); the atlas is not kept", report)
 
 
 def _simulate(

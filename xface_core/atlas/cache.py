@@ -23,7 +23,7 @@ import hashlib
 import os
 import uuid
 import warnings
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -78,10 +78,13 @@ def is_directory(path: Path) -> bool:
         return False
 
 
-def warn_cache(message: str) -> None:
-    """Report a cache problem as one :class:`AtlasCacheWarning`, pointing at the caller of
-    ``build_atlas`` (which calls the helper that calls this)."""
-    warnings.warn(message, AtlasCacheWarning, stacklevel=4)
+def warn_cache(message: str, report: Callable[[str], object] | None = None) -> None:
+    """Report a cache problem to ``report``, else as one :class:`AtlasCacheWarning` pointing
+    at the caller of ``build_atlas`` (which calls the helper that calls this)."""
+    if report is not None:
+        report(message)
+    else:
+        warnings.warn(message, AtlasCacheWarning, stacklevel=4)
 
 
 def checksum(arrays: Mapping[str, npt.NDArray[np.generic]]) -> str:

@@ -71,13 +71,13 @@ def assert_rebuilt_with_one_warning(
     """The bad file at ``path`` is not used: one AtlasCacheWarning naming the file and
     matching ``reason``, the atlas built afresh, the file replaced by a valid one."""
     atlas, caught = build_recording(path.parent)
+    assert np.array_equal(atlas.outcomes, fresh.outcomes)
+    assert atlas.build_seconds > 0.0
     assert len(caught) == 1, [str(w.message) for w in caught]
     assert issubclass(caught[0].category, AtlasCacheWarning)
     message = str(caught[0].message)
     assert str(path) in message
     assert re.search(reason, message), message
-    assert atlas.build_seconds > 0.0
-    assert np.array_equal(atlas.outcomes, fresh.outcomes)
     assert_loads_silently(path.parent, fresh)
     return atlas
 
@@ -93,7 +93,7 @@ def rewrite(path: Path, **changes: np.ndarray | None) -> None:
     arrays = stored_arrays(path)
     for name, value in changes.items():
         if value is None:
-            del arrays[name]
+            arrays.pop(name, None)
         else:
             arrays[name] = value
     np.savez_compressed(path, **arrays)
@@ -170,7 +170,7 @@ def test_outcome_values_that_are_no_outcome_code_are_rebuilt(
 
     path = cached_file(tmp_path)
     arrays = stored_arrays(path)
-    del arrays["checksum"]
+    arrays.pop("checksum", None)
     arrays["outcomes"] = np.full_like(fresh.outcomes, 99)
     rewrite(path, outcomes=arrays["outcomes"], checksum=np.array(checksum(arrays)))
     assert_rebuilt_with_one_warning(path, fresh, "not outcome codes")
@@ -216,6 +216,23 @@ def test_a_cache_dir_that_is_a_file_is_a_warning_and_the_atlas_is_returned(
     assert not_a_folder.read_text() == "a file"
 
 
+def test_cache_problems_go_to_the_given_reporter_instead_of_a_warning(
+    tmp_path: Path, fresh: AcceptanceAtlas
+) -> None:
+    # A node logs them with its own logger (a Python warning is process-wide).
+    path = cached_file(tmp_path)
+    path.write_bytes(b"")
+    told: list[str] = []
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        atlas = build_atlas(DESIGN, cache_dir=tmp_path, on_cache_problem=told.append, **TINY)
+    assert np.array_equal(atlas.outcomes, fresh.outcomes)
+    assert [str(w.message) for w in caught] == []
+    assert len(told) == 1
+    assert str(path) in told[0]
+    assert "empty" in told[0]
+
+
 @pytest.mark.skipif(os.geteuid() == 0, reason="root writes into a read-only folder")
 def test_a_read_only_cache_dir_is_a_warning_and_the_atlas_is_returned(
     tmp_path: Path, fresh: AcceptanceAtlas
@@ -237,17 +254,16 @@ def test_a_failed_write_leaves_no_temporary_file_and_keeps_the_old_one(
     tmp_path: Path, fresh: AcceptanceAtlas, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     # A folder that takes the temporary file but not the rename (read-only for root too).
-    from xface_core.atlas import cache
-
     path = cached_file(tmp_path)
     before = path.read_bytes()
 
     def refuse(*args: Any, **kwargs: Any) -> None:
         raise PermissionError("read-only file system")
 
-    monkeypatch.setattr(cache.os, "replace", refuse)
-    with pytest.raises(PermissionError):
-        fresh.save(path)
+    with monkeypatch.context() as patch:
+        patch.setattr(os, "replace", refuse)
+        with pytest.raises(PermissionError):
+            fresh.save(path)
     assert sorted(p.name for p in tmp_path.iterdir()) == [path.name]
     assert path.read_bytes() == before
 
