@@ -121,12 +121,12 @@ def write_atlas_file(path: Path, arrays: Mapping[str, npt.NDArray[np.generic]]) 
 
 
 def _expected_layout(
-    n: int, m: int, flips: int
+    n: int, m: int, flips: int, key_chars: int
 ) -> dict[str, tuple[np.dtype[np.generic], tuple[int, ...]]]:
     """The dtype and shape of every stored array on an ``n`` x ``m`` grid with ``flips``
-    grid-line flips."""
+    grid-line flips and a key of ``key_chars`` characters."""
     return {
-        "key": (np.dtype("<U24"), ()),
+        "key": (np.dtype(f"<U{key_chars}"), ()),
         "format": (np.dtype(np.int64), ()),
         "x0": (np.dtype(np.float64), (n,)),
         "theta0": (np.dtype(np.float64), (m,)),
@@ -170,7 +170,7 @@ def _npz_arrays(data: np.lib.npyio.NpzFile, n: int, m: int) -> dict[str, npt.NDA
     if data.zip is None:  # only after close
         raise UnusableAtlasFile("the archive was closed while being read")
     members = {info.filename: info.file_size for info in data.zip.infolist()}
-    wanted = {f"{name}.npy" for name in _expected_layout(n, m, 0)}
+    wanted = {f"{name}.npy" for name in _expected_layout(n, m, 0, 0)}
     if set(members) != wanted:
         raise UnusableAtlasFile(f"holds {sorted(members)}, not the arrays of an atlas file")
     # The largest: flip keys, at most one per grid segment ((n - 1) m + n (m - 1) < 2 n m).
@@ -193,8 +193,9 @@ def read_atlas_file(
     check.
     """
     arrays = _read_arrays(path, x0.size, theta0.size)
-    flips = arrays["flip_keys"].shape[0] if arrays["flip_keys"].ndim == 2 else -1
-    for name, (dtype, shape) in _expected_layout(x0.size, theta0.size, flips).items():
+    flips = arrays["flip_keys"].shape[0] if arrays["flip_keys"].ndim >= 1 else 0
+    layout = _expected_layout(x0.size, theta0.size, flips, len(key))
+    for name, (dtype, shape) in layout.items():
         a = arrays[name]
         if a.dtype != dtype or a.shape != shape:
             raise UnusableAtlasFile(
@@ -210,7 +211,8 @@ def read_atlas_file(
     if not (np.array_equal(arrays["x0"], x0) and np.array_equal(arrays["theta0"], theta0)):
         raise UnusableAtlasFile("its grid is not the requested one")
     if float(arrays["start_clearance"]) != start_clearance:
-        raise UnusableAtlasFile(f"start clearance {float(arrays['start_clearance'])}")
+        stored = float(arrays["start_clearance"])
+        raise UnusableAtlasFile(f"start clearance {stored}, expected {start_clearance}")
     if not bool(np.all(np.isin(arrays["outcomes"], _VALID_OUTCOMES))):
         raise UnusableAtlasFile("outcomes hold values that are not outcome codes")
     return arrays
