@@ -28,7 +28,6 @@ import hashlib
 import math
 import threading
 import time
-import zipfile
 from collections.abc import Callable
 from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
@@ -43,6 +42,16 @@ from xface_core.geometry import FaceDesign
 from xface_core.physics import Physics, SolverSettings
 from xface_core.runner import START_CLEARANCE, outcomes_at
 
+from .cache import (
+    ATLAS_FORMAT,
+    AtlasCacheWarning,
+    UnusableAtlasFile,
+    cache_path,
+    is_directory,
+    read_atlas_file,
+    warn_cache,
+    write_atlas_file,
+)
 from .flips import bisect_every_flip, check_cancel
 
 __all__ = [
@@ -52,6 +61,7 @@ __all__ = [
     "DEFAULT_LATERAL_STEP",
     "MAX_ATLAS_NODES",
     "AcceptanceAtlas",
+    "AtlasCacheWarning",
     "atlas_key",
     "build_atlas",
 ]
@@ -59,8 +69,6 @@ __all__ = [
 FloatArray = npt.NDArray[np.float64]
 Int8Array = npt.NDArray[np.int8]
 
-#: Bumped whenever the stored arrays or their meaning change (part of the cache key).
-ATLAS_FORMAT = 1
 #: Default node spacing: D/64 laterally and pi/256 in angle, finer than the exact margin
 #: search's scan (D/40, pi/160), so the atlas sees every feature that search sees.
 DEFAULT_LATERAL_STEP = 1.0 / 64.0
@@ -266,25 +274,23 @@ class AcceptanceAtlas:
     def save(self, path: str | Path) -> Path:
         """Write the atlas to an ``.npz`` file (``build_atlas(..., cache_dir=...)`` reads it
         back for the same design, physics and grid; the design itself is not stored), with
-        the grid-line flips found so far: saved again later, a restart also keeps those."""
+        the grid-line flips found so far (saved again later, a restart also keeps those) and
+        a checksum (:mod:`xface_core.atlas.cache`). The file is replaced atomically: a reader
+        never sees half a file, and two processes may save the same atlas at once. Raises
+        ``OSError`` when the folder cannot be written."""
         flip_keys, flip_brackets = self.flips.arrays()
-        target = Path(path)
-        target.parent.mkdir(parents=True, exist_ok=True)
-        tmp = target.with_name(target.name + ".tmp.npz")
-        np.savez_compressed(
-            tmp,
-            key=np.array(self.key),
-            x0=self.x0,
-            theta0=self.theta0,
-            outcomes=self.outcomes,
-            simulated=self.simulated,
-            start_clearance=np.array(self.start_clearance),
-            flip_keys=flip_keys,
-            flip_brackets=flip_brackets,
-        )
-        # Rename last: a reader never sees half a file, even with two builders racing.
-        tmp.replace(target)
-        return target
+        arrays: dict[str, npt.NDArray[Any]] = {
+            "key": np.array(self.key),
+            "format": np.array(ATLAS_FORMAT, dtype=np.int64),
+            "x0": self.x0,
+            "theta0": self.theta0,
+            "outcomes": self.outcomes,
+            "simulated": self.simulated,
+            "start_clearance": np.array(self.start_clearance, dtype=np.float64),
+            "flip_keys": flip_keys,
+            "flip_brackets": flip_brackets,
+        }
+        return write_atlas_file(Path(path), arrays)
 
 
 def _settings_tuple(settings: SolverSettings) -> tuple[object, ...]:
@@ -317,12 +323,6 @@ def atlas_key(
         START_CLEARANCE,
     )
     return hashlib.sha256(repr(parts).encode()).hexdigest()[:24]
-
-
-def cache_path(cache_dir: str | Path, key: str) -> Path:
-    """The file of the atlas with ``key`` (:func:`atlas_key`) in ``cache_dir`` (``~``
-    expanded): where :func:`build_atlas` reads and writes it."""
-    return Path(cache_dir).expanduser() / f"atlas-{key}.npz"
 
 
 def _half_nodes(extent: float, step: float, stride: int) -> int:
@@ -372,6 +372,7 @@ def build_atlas(
     threads: int | None = None,
     every_flip: bool = False,
     cancel: Callable[[], bool] | None = None,
+    on_cache_problem: Callable[[str], object] | None = None,
 ) -> AcceptanceAtlas:
     """Build (or load from ``cache_dir``) the acceptance atlas of a design and physics.
 
@@ -394,9 +395,12 @@ def build_atlas(
     max_nodes : int
         Size guard: a grid with more nodes raises :class:`XfaceValueError` with the estimate.
     cache_dir : path, optional
-        Directory of ``atlas-<key>.npz`` files (``~`` expanded): an atlas with the same key
-        is loaded instead of built, and a built one is saved there. Nothing is cached unless
-        a directory is given.
+        Directory of ``atlas-<key>.npz`` files (``~`` expanded, created if absent): an atlas
+        with the same key is loaded instead of built, and a built one is saved there. A file
+        that fails a check (:mod:`xface_core.atlas.cache`) is rebuilt and replaced, and a
+        folder that cannot be written keeps nothing; each is one
+        :class:`~xface_core.atlas.cache.AtlasCacheWarning` (the atlas is returned all the
+        same). Nothing is cached unless a directory is given.
     threads : int, optional
         Threads of the batch simulations (default: one per core).
     every_flip : bool
@@ -412,6 +416,10 @@ def build_atlas(
         second); when it returns True the build stops with :class:`~.errors.Cancelled` and
         nothing is saved. For a caller that may stop wanting the atlas (the ROS node at
         shutdown or after a design change).
+    on_cache_problem : callable, optional
+        Told, in one sentence naming the file and the reason, of a cache file not used or
+        not written, instead of an :class:`~xface_core.atlas.cache.AtlasCacheWarning`: for a
+        caller with a logger of its own (the ROS node).
 
     Examples
     --------
@@ -435,28 +443,20 @@ def build_atlas(
         raise XfaceValueError(f"angle_range must be <= 2 pi, got {angle_range!r}")
     nx, nt = _grid_size(x_range, dx, t_range, dt, coarse_stride, max_nodes)
     key = atlas_key(
-        design,
-        phys,
-        lateral_step=dx,
-        angle_step=dt,
-        lateral_range=x_range,
-        angle_range=t_range,
-        coarse_stride=coarse_stride,
-    )
-    path = None if cache_dir is None else cache_path(cache_dir, key)
-    if path is not None and path.exists():
-        try:
-            loaded = _load(path, design, phys, key)
-        except (OSError, ValueError, KeyError, zipfile.BadZipFile):
-            pass  # unreadable (truncated by a crash, or foreign): rebuilt and overwritten
-        else:
-            if every_flip and bisect_every_flip(loaded, threads=threads, cancel=cancel):
-                loaded.save(path)
-            return loaded
-
+        design, phys, lateral_step=dx, angle_step=dt, lateral_range=x_range,
+        angle_range=t_range, coarse_stride=coarse_stride,
+    )  # fmt: skip
     # Integer multiples: mirrored nodes are exact negatives (the mirror fill relies on it).
     x_d = np.arange(-nx, nx + 1).astype(np.float64) * dx
     th = np.arange(-nt, nt + 1).astype(np.float64) * dt
+    path = None if cache_dir is None else cache_path(cache_dir, key)
+    if path is not None:
+        loaded = _load_or_warn(path, design, phys, key, x_d, th, on_cache_problem)
+        if loaded is not None:
+            if every_flip and bisect_every_flip(loaded, threads=threads, cancel=cancel):
+                _save_or_warn(loaded, path, on_cache_problem)
+            return loaded
+
     t0 = time.perf_counter()
     outcomes, simulated = _refine(design, x_d, th, coarse_stride, phys, threads, cancel)
     atlas = AcceptanceAtlas(
@@ -473,29 +473,61 @@ def build_atlas(
         bisect_every_flip(atlas, threads=threads, cancel=cancel)
         atlas = replace(atlas, build_seconds=time.perf_counter() - t0)  # the flips as well
     if path is not None:
-        atlas.save(path)
+        _save_or_warn(atlas, path, on_cache_problem)
     return atlas
 
 
-def _load(path: Path, design: FaceDesign, physics: Physics, key: str) -> AcceptanceAtlas:
-    """Read a cached atlas; its stored key must be the one computed for this request."""
-    with np.load(path, allow_pickle=False) as data:
-        stored = str(data["key"])
-        if stored != key:
-            raise XfaceValueError(f"{path}: stored key {stored} is not the expected {key}")
+def _load_or_warn(
+    path: Path,
+    design: FaceDesign,
+    physics: Physics,
+    key: str,
+    x_d: FloatArray,
+    th: FloatArray,
+    report: Callable[[str], object] | None,
+) -> AcceptanceAtlas | None:
+    """The cached atlas at ``path`` for ``key`` on the grid ``x_d`` x ``th``, or None: when
+    there is no file, or when the file fails a check of
+    :func:`~xface_core.atlas.cache.read_atlas_file` or holds flips that do not fit the grid
+    (then with one :class:`AtlasCacheWarning` naming the file and the reason, or that
+    sentence to ``report``). The caller rebuilds it and replaces the file."""
+    try:
+        data = read_atlas_file(path, key=key, x0=x_d, theta0=th, start_clearance=START_CLEARANCE)
         atlas = AcceptanceAtlas(
             design=design,
             physics=physics,
-            key=stored,
-            x0=np.asarray(data["x0"], dtype=np.float64),
-            theta0=np.asarray(data["theta0"], dtype=np.float64),
+            key=key,
+            x0=x_d,
+            theta0=th,
             outcomes=np.asarray(data["outcomes"], dtype=np.int8),
             simulated=np.asarray(data["simulated"], dtype=np.bool_),
-            start_clearance=float(data["start_clearance"]),
+            start_clearance=START_CLEARANCE,
         )
-        if "flip_keys" in data:  # files written before the flips were saved have none
+        try:
             atlas.flips.add_arrays(data["flip_keys"], data["flip_brackets"], atlas.outcomes.shape)
-        return atlas
+        except ValueError as exc:
+            raise UnusableAtlasFile(str(exc)) from exc
+    except (FileNotFoundError, NotADirectoryError):
+        return None  # nothing cached yet (the folder may not exist, or be a file: the save says)
+    except UnusableAtlasFile as exc:
+        then = "built, not cached" if is_directory(path) else "rebuilt and replaced"
+        warn_cache(f"atlas cache file {path} not used: {exc}; the atlas is {then}", report)
+        return None
+    return atlas
+
+
+def _save_or_warn(
+    atlas: AcceptanceAtlas, path: Path, report: Callable[[str], object] | None
+) -> None:
+    """Save ``atlas`` to ``path``; a folder that cannot be written is one
+    :class:`AtlasCacheWarning` or sentence to ``report`` (the atlas is still there for the
+    caller, the next run builds it again). A directory there is left alone (warned when read)."""
+    if is_directory(path):
+        return
+    try:
+        atlas.save(path)
+    except OSError as exc:
+        warn_cache(f"atlas cache file {path} not written ({exc}); the atlas is not kept", report)
 
 
 def _simulate(

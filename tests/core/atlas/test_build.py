@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 
 import xface_core as xf
-from xface_core.atlas.build import build_atlas
+from xface_core.atlas.build import AtlasCacheWarning, build_atlas
+from xface_core.atlas.cache import checksum
 from xface_core.atlas.flips import bisect_every_flip
 from xface_core.errors import Cancelled
 
@@ -64,7 +65,8 @@ def test_unreadable_cache_file_is_rebuilt(tmp_path: Path) -> None:
     design = xf.v_face(0.5, 1.0)
     built = build_atlas(design, cache_dir=tmp_path, **SMALL)
     (tmp_path / f"atlas-{built.key}.npz").write_bytes(b"truncated")
-    again = build_atlas(design, cache_dir=tmp_path, **SMALL)
+    with pytest.warns(AtlasCacheWarning, match="not an .npz"):
+        again = build_atlas(design, cache_dir=tmp_path, **SMALL)
     assert again.build_seconds > 0.0
     assert np.array_equal(again.outcomes, built.outcomes)
     assert build_atlas(design, cache_dir=tmp_path, **SMALL).build_seconds == 0.0
@@ -169,8 +171,10 @@ def test_a_cache_file_with_damaged_flips_is_rebuilt(tmp_path: Path) -> None:
         arrays = dict(data)
     arrays["flip_keys"] = np.array([[0, -1, 0]])
     arrays["flip_brackets"] = np.array([[0.0, 0.1]])
-    np.savez_compressed(path, **arrays)
-    again = build_atlas(design, cache_dir=tmp_path, **SMALL)
+    del arrays["checksum"]  # signed again: the flips' own check must refuse them
+    np.savez_compressed(path, **arrays, checksum=np.array(checksum(arrays)))
+    with pytest.warns(AtlasCacheWarning, match="flip arrays that do not fit the grid"):
+        again = build_atlas(design, cache_dir=tmp_path, **SMALL)
     assert again.build_seconds > 0.0
     assert np.array_equal(again.outcomes, built.outcomes)
 
