@@ -81,16 +81,16 @@ class AtlasKeeper:
     ) -> AcceptanceAtlas:
         """Build the atlas with every grid-line flip bisected (a planner's first question
         near a boundary then takes eight confirmations, not a search), or load it from
-        ``cache_dir`` (empty: no cache). A cache that cannot be written costs the next start
-        its build, not this one its atlas."""
+        ``cache_dir`` (empty: no cache). A bad cache file is rebuilt and replaced, and a cache
+        that cannot be written costs the next start its build, not this one its atlas: each
+        is one warning in the log naming the file and why, never an exception."""
         build = partial(build_atlas, design, physics=physics, every_flip=True, cancel=cancel)
         if not cache_dir:
             return build()
-        try:
-            return build(cache_dir=cache_dir)
-        except OSError as exc:
-            self._logger.warning(f"atlas cache {cache_dir!r} not usable, atlas not kept: {exc}")
-            return build()
+        return build(
+            cache_dir=cache_dir,
+            on_cache_problem=lambda why: self._logger.warning(f"atlas cache not usable: {why}"),
+        )
 
     def join(self, timeout_s: float = 60.0) -> None:
         """Wait for the builds started so far (tests, :meth:`stop`)."""
