@@ -234,7 +234,7 @@ def _read_piece(file: Path) -> _Piece:
     except FileNotFoundError:
         raise
     except (OSError, pa.ArrowException, ValueError, EOFError) as exc:
-        raise _Damaged(f"not a readable Parquet file: {exc}") from None
+        raise _Damaged(f"not a readable Parquet file ({str(exc).rstrip('.')})") from None
     meta = table.schema.metadata or {}
     if _META_KEY not in meta:
         raise _Damaged("not an xface study table: no study settings in it")
@@ -328,7 +328,7 @@ def _load_once(path: Path, damaged_part: Callable[[Path, str], None]) -> list[_P
                 damaged_part(file, str(exc))
                 continue
             raise XfaceValueError(
-                f"{file} is damaged ({exc}): restore it from a copy, or move it aside to "
+                f"{file} is damaged: {exc}; restore it from a copy, or move it aside to "
                 "start the study over"
             ) from None
     return pieces
@@ -368,8 +368,8 @@ def _merge(pieces: Sequence[_Piece]) -> tuple[Any, list[tuple[Path, str]]]:
             kept_file = pieces[kept["__piece"]].file
             if other["__piece"] == kept["__piece"]:  # only a table holds more than one row
                 raise XfaceValueError(
-                    f"{kept_file} is damaged (two different rows of design "
-                    f"{_design_text(keys[i])}): restore it from a copy, or move it aside to "
+                    f"{kept_file} is damaged: two different rows of design "
+                    f"{_design_text(keys[i])}; restore it from a copy, or move it aside to "
                     "start the study over"
                 )
             what = ", ".join(f"{c} {kept[c]!r} there, {other[c]!r} here" for c in differ)
@@ -499,8 +499,8 @@ class StudyFile:
                 f"{file}: {reason}, and it cannot be moved aside: {exc}"
             ) from None
         warnings.warn(
-            f"{file}: {reason}; moved it to {target} (its design is computed again "
-            "unless another row of it is kept)",
+            f"{file}: {reason}; moved it to {target} (a design of it that the rest of the "
+            "study lacks is computed again)",
             XfaceWarning,
             stacklevel=3,
         )

@@ -180,7 +180,7 @@ def test_a_corrupt_part_is_moved_aside_and_its_design_computed_again(
 def test_a_damaged_table_is_a_clear_error_and_is_left_in_place(study: Path) -> None:
     _truncate(study, 200)
     for attempt in (lambda: read_study(study), lambda: run_study(SPACE, study, grid=GRID)):
-        with pytest.raises(xf.XfaceValueError, match=f"{study} is damaged .*move it aside"):
+        with pytest.raises(xf.XfaceValueError, match=f"{study} is damaged: .*move it aside"):
             attempt()
     assert study.stat().st_size == 200
 
