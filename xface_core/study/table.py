@@ -213,6 +213,10 @@ class _Damaged(Exception):
     """A file of a study that cannot be read or does not match its checksum (its reason)."""
 
 
+class _NotAStudy(_Damaged):
+    """A readable Parquet file that is no xface study table (what it lacks)."""
+
+
 @dataclass(frozen=True)
 class _Piece:
     """One file of a study, read and checked."""
@@ -237,7 +241,9 @@ def _read_piece(file: Path) -> _Piece:
         raise _Damaged(f"not a readable Parquet file ({str(exc).rstrip('.')})") from None
     meta = table.schema.metadata or {}
     if _META_KEY not in meta:
-        raise _Damaged("not an xface study table: no study settings in it")
+        raise _NotAStudy("no study settings in it")
+    if not table.schema.remove_metadata().equals(_schema()):
+        raise _NotAStudy("its columns are not those of a study table")
     try:
         settings = json.loads(meta[_META_KEY])
         if not isinstance(settings, dict):
@@ -251,8 +257,6 @@ def _read_piece(file: Path) -> _Piece:
                 raise _Damaged("its contents do not match its checksum")
     except (KeyError, ValueError, TypeError, UnicodeDecodeError) as exc:
         raise _Damaged(f"its study metadata is unreadable ({exc})") from None
-    if not table.schema.remove_metadata().equals(_schema()):
-        raise _Damaged("its columns are not those of a study table")
     return _Piece(file, table, settings, writers)
 
 
@@ -324,9 +328,14 @@ def _load_once(path: Path, damaged_part: Callable[[Path, str], None]) -> list[_P
         try:
             pieces.append(_read_piece(file))
         except _Damaged as exc:
+            foreign = isinstance(exc, _NotAStudy)
+            reason = f"not an xface study table ({exc})" if foreign else str(exc)
             if file != path:
-                damaged_part(file, str(exc))
+                damaged_part(file, reason)
                 continue
+            if foreign:
+                message = f"{file} is {reason}: write this study to another --out"
+                raise XfaceValueError(message) from None
             raise XfaceValueError(
                 f"{file} is damaged: {exc}; restore it from a copy, or move it aside to "
                 "start the study over"
