@@ -16,6 +16,7 @@ __all__ = [
     "InputError",
     "XfaceError",
     "XfaceValueError",
+    "XfaceWarning",
     "is_integer_in",
 ]
 
@@ -27,6 +28,11 @@ class XfaceError(Exception):
 class Cancelled(XfaceError):
     """A long computation stopped between two of its batches because its caller's ``cancel``
     callback said so (:func:`~xface_core.atlas.build.build_atlas`)."""
+
+
+class XfaceWarning(UserWarning):
+    """Something was worked around that the user should know of (a damaged part of a study
+    moved aside, two different rows of one design); the command line prints it as one line."""
 
 
 class XfaceValueError(XfaceError, ValueError):

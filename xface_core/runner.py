@@ -23,6 +23,7 @@ import numpy.typing as npt
 
 from . import _engine
 from ._engine import precompiled
+from ._engine._stale import source_digest
 from .codes import Outcome, Reason
 from .contact import contact_geometry, pair_table
 from .errors import InputError, XfaceValueError, is_integer_in
@@ -37,6 +38,7 @@ __all__ = [
     "EngineState",
     "check_pose",
     "count_engine_calls",
+    "engine_digest",
     "engine_is_cached",
     "engine_model",
     "engine_options",
@@ -109,6 +111,13 @@ class EngineState:
         if self.ready:
             return f"ready ({self.source})"
         return f"compiles on first use (about {self.compile_estimate_s:.0f} s of CPU)"
+
+
+def engine_digest() -> str:
+    """SHA-256 (hex) of the engine's sources: the digest the precompiled build's manifest
+    records, so two results with the same digest came from the same engine code. A study
+    table stores it (:mod:`xface_core.study.table`)."""
+    return source_digest()
 
 
 def engine_state() -> EngineState:

@@ -16,13 +16,14 @@ import os
 import secrets
 import signal
 import sys
+import warnings
 from collections.abc import Iterator
 from contextlib import AbstractContextManager, contextmanager, suppress
 from functools import partial
 from pathlib import Path
-from typing import Any
+from typing import Any, TextIO
 
-from xface_core.errors import XfaceValueError
+from xface_core.errors import XfaceValueError, XfaceWarning
 from xface_core.maps.grids import PAPER_GRID_SIZE
 from xface_core.study.noise import PoseNoise
 from xface_core.study.run import MAX_STUDY_GRID, StudyProgress, read_study, run_study
@@ -61,6 +62,31 @@ def _executor(args: argparse.Namespace) -> Iterator[Any]:
         yield client
     finally:
         client.close()
+
+
+@contextmanager
+def _warnings_as_lines() -> Iterator[None]:
+    """An :class:`XfaceWarning` (a damaged part of the study moved aside, ...) as one line
+    ``xface: warning: ...`` on stderr, when it happens; other warnings as Python shows them."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("always", XfaceWarning)
+        show = warnings.showwarning
+
+        def show_line(
+            message: Warning | str,
+            category: type[Warning],
+            filename: str,
+            lineno: int,
+            file: TextIO | None = None,
+            line: str | None = None,
+        ) -> None:
+            if issubclass(category, XfaceWarning):
+                print(f"xface: warning: {message}", file=sys.stderr)
+            else:
+                show(message, category, filename, lineno, file, line)
+
+        warnings.showwarning = show_line
+        yield
 
 
 def _raise_interrupt(signum: int, frame: object) -> None:
@@ -131,6 +157,11 @@ def _noise(args: argparse.Namespace) -> PoseNoise | None:
 
 
 def _cmd_sweep(args: argparse.Namespace) -> int:
+    with _warnings_as_lines():
+        return _sweep(args)
+
+
+def _sweep(args: argparse.Namespace) -> int:
     _check_grid(args.grid)
     space = DesignSpace(
         faces=parse_face_list(args.face),
@@ -153,6 +184,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
                 executor=client,
                 workers=args.workers,
                 progress=bar,
+                allow_version_mix=args.allow_version_mix,
             )
     except KeyboardInterrupt:
         return _interrupted(args.out)
@@ -199,6 +231,11 @@ def _row_text(row: dict[str, Any]) -> str:
 
 
 def _cmd_design(args: argparse.Namespace) -> int:
+    with _warnings_as_lines():
+        return _design(args)
+
+
+def _design(args: argparse.Namespace) -> int:
     _check_grid(args.grid)
     kwargs: dict[str, Any] = {
         "h_over_d": _box(args.h_over_d, "--h-over-d"),
@@ -214,6 +251,7 @@ def _cmd_design(args: argparse.Namespace) -> int:
         "noise": _noise(args),
         "out": args.out,
         "workers": args.workers,
+        "allow_version_mix": args.allow_version_mix,
     }
     try:
         with _sigterm_interrupts(), _executor(args) as client, _progress(args, "design") as bar:
@@ -279,6 +317,11 @@ def _common_study_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--noise-seed", type=int, default=0, help="seed of the noisy poses")
     p.add_argument("--quiet", action="store_true", help="no progress bar on stderr")
     p.add_argument("--json", action="store_true", help="machine-readable output")
+    p.add_argument(
+        "--allow-version-mix",
+        action="store_true",
+        help="resume an --out holding rows of another xface or engine version",
+    )
 
 
 def add_study_commands(sub: Any) -> None:

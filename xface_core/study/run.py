@@ -147,11 +147,14 @@ def run_study(
     executor: Executor | ClientLike | None = None,
     workers: int | None = None,
     progress: Callable[[StudyProgress], None] | None = None,
+    allow_version_mix: bool = False,
 ) -> StudyRun:
     """Simulate every design of ``space`` not yet in ``out`` and write its row there.
 
     ``noise`` adds the mean seat probability over the grid under that pose noise, with its
     standard error (:mod:`xface_core.study.noise`; ``samples`` simulations per grid node).
+    ``allow_version_mix`` lets a run add rows to an ``out`` holding rows of another xface
+    or engine version (refused by default: they may differ).
     ``executor``: None for local processes (``workers`` of them, default one per core; 1 runs
     in this process), any :class:`concurrent.futures.Executor`, or a
     ``dask.distributed.Client``. Every design is validated (built) before anything runs.
@@ -163,7 +166,11 @@ def run_study(
     Raises
     ------
     XfaceValueError
-        A bad space or grid, an unwritable ``out``, or an ``out`` of another study.
+        A bad space or grid, an unwritable ``out``, an ``out`` of another study or version,
+        a damaged table (a damaged part is moved aside with a warning and its design
+        computed again; :mod:`xface_core.study.table`).
+    StudyBusy
+        Another run is writing ``out`` (:mod:`xface_core.study.lock`).
     WorkerLost
         A design's worker died more often than the retries allow.
 
@@ -188,29 +195,30 @@ def run_study(
         raise XfaceValueError(f"workers must be in [1, {MAX_LOCAL_WORKERS}], got {workers}")
     points = space.points()
     designs = [space.design(p) for p in points]
-    study = StudyFile(out, study_settings(grid, theta_kind, settings, noise))
-    already = study.done()
-    jobs = [
-        DesignJob(p, d, grid, theta_kind, settings, noise)
-        for p, d in zip(points, designs, strict=True)
-        if p not in already
-    ]
-    skipped = len(points) - len(jobs)
-    start = time.monotonic()
-    done = 0
+    settings_of_study = study_settings(grid, theta_kind, settings, noise)
+    with StudyFile(out, settings_of_study, allow_version_mix=allow_version_mix) as study:
+        already = study.done()
+        jobs = [
+            DesignJob(p, d, grid, theta_kind, settings, noise)
+            for p, d in zip(points, designs, strict=True)
+            if p not in already
+        ]
+        skipped = len(points) - len(jobs)
+        start = time.monotonic()
+        done = 0
 
-    def write(job: DesignJob, row: dict[str, Any]) -> None:
-        nonlocal done
-        study.write_row(row)
-        done += 1
+        def write(job: DesignJob, row: dict[str, Any]) -> None:
+            nonlocal done
+            study.write_row(row)
+            done += 1
+            if progress is not None:
+                progress(StudyProgress(done, len(jobs), skipped, time.monotonic() - start))
+
         if progress is not None:
-            progress(StudyProgress(done, len(jobs), skipped, time.monotonic() - start))
-
-    if progress is not None:
-        progress(StudyProgress(0, len(jobs), skipped, 0.0))
-    if jobs and executor is None and workers != 1:
-        # Load the compiled engine once here, so that forked workers start with it.
-        acceptance_map(x_face(1.0, 1.0), grid=3, threads=1)
-    execute(evaluate_design, jobs, write, executor=executor, workers=workers)
-    study.compact()
-    return StudyRun(str(study.path), done, skipped, time.monotonic() - start)
+            progress(StudyProgress(0, len(jobs), skipped, 0.0))
+        if jobs and executor is None and workers != 1:
+            # Load the compiled engine once here, so that forked workers start with it.
+            acceptance_map(x_face(1.0, 1.0), grid=3, threads=1)
+        execute(evaluate_design, jobs, write, executor=executor, workers=workers)
+        study.compact()
+        return StudyRun(str(study.path), done, skipped, time.monotonic() - start)

@@ -162,13 +162,14 @@ def search_designs(
     executor: Executor | ClientLike | None = None,
     workers: int | None = None,
     progress: Callable[[StudyProgress], None] | None = None,
+    allow_version_mix: bool = False,
 ) -> DesignSearch:
     """The best design of ``face`` (X, V, S or a name in ``families``) in the box
     ``h_over_d`` x ``r_p`` for one friction and damping ratio, by ``criterion``.
 
     ``noise`` adds the mean seat probability (required by that criterion). ``out`` keeps
     the study table (and makes the search resumable); by default it lives in
-    a temporary folder. ``executor``, ``workers`` and ``progress`` as for
+    a temporary folder. ``executor``, ``workers``, ``progress`` and ``allow_version_mix`` as for
     :func:`~xface_core.study.run.run_study`.
 
     Examples
@@ -204,6 +205,7 @@ def search_designs(
                 executor=executor,
                 workers=workers,
                 progress=progress,
+                allow_version_mix=allow_version_mix,
             )
             wanted = set(space.points())
             table = read_study(path).to_pylist()

@@ -11,6 +11,7 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+from unittest import mock
 
 import numpy as np
 import pytest
@@ -20,6 +21,7 @@ import xface_core as xf
 from xface_core.cli import main
 from xface_core.cli.study import ProgressBar
 from xface_core.study.run import StudyProgress, read_study
+from xface_core.study.table import StudyFile
 
 ROOT = Path(__file__).resolve().parents[3]
 
@@ -143,6 +145,47 @@ def test_resuming_into_another_study_s_file_is_refused(
     assert main(["sweep", "--grid", "5", "--out", out, "--quiet"]) == 0
     assert main(["sweep", "--grid", "7", "--out", out, "--quiet"]) == 2
     assert "belongs to another study (grid 5 there, 7 here)" in capsys.readouterr().err
+
+
+#: A tiny sweep: four designs on a 5 x 5 pose grid, in this process.
+TINY = ["sweep", "--face", "X,V", "--h-over-d", "0.25", "--rp", "1,2", "--grid", "5"]
+TINY += ["--workers", "1", "--quiet", "--json"]
+
+
+def test_a_damaged_part_is_one_warning_line_and_the_sweep_completes(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "s.parquet"
+    with mock.patch.object(StudyFile, "compact", return_value=None):
+        assert main([*TINY, "--out", str(out)]) == 0  # as if killed before folding its parts
+    part = sorted(out.with_name(out.name + ".parts").iterdir())[0]
+    part.write_bytes(part.read_bytes()[:50])
+    capsys.readouterr()
+    assert main([*TINY, "--out", str(out)]) == 0
+    captured = capsys.readouterr()
+    assert json.loads(captured.out)["computed"] == 1
+    (line,) = captured.err.splitlines()
+    assert line.startswith(f"xface: warning: {part}: not a readable Parquet file")
+    assert "moved it to" in line
+
+
+def test_resuming_rows_of_another_version_is_one_line_unless_the_mix_is_allowed(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "s.parquet"
+    other = {"xface": "0.0.9", "engine": "0" * 64}
+    with mock.patch("xface_core.study.table.writer_version", return_value=other):
+        assert main(["sweep", "--grid", "5", "--out", str(out), "--quiet"]) == 0
+    capsys.readouterr()
+    argv = [*TINY, "--out", str(out)]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("xface: error: ")
+    assert err.count("\n") == 1
+    assert "xface 0.0.9 (engine 000000000000)" in err
+    assert "--allow-version-mix" in err
+    assert main([*argv, "--allow-version-mix"]) == 0
+    assert json.loads(capsys.readouterr().out)["computed"] == 3
 
 
 def test_the_parquet_has_the_columns_the_issue_names(tmp_path: Path) -> None:

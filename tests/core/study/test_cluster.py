@@ -96,6 +96,48 @@ def test_a_scheduler_address_without_a_protocol_is_refused() -> None:
         connect("127.0.0.1:8786")
 
 
+@pytest.mark.parametrize(
+    "address",
+    [
+        "tcp://host:notaport",
+        "tcp://127.0.0.1",
+        "tcp://[::1",
+        "tcp://a b:8786",
+        "tcp://127.0.0.1:99999",
+        "tcp://127.0.0.1:0",
+        "tcp://:8786",
+        "tcp://host:8786/path",
+    ],
+)
+def test_a_malformed_scheduler_address_is_one_line_before_connecting(
+    address: str,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    def no_connecting(*args: object, **kwargs: object) -> None:
+        raise AssertionError(f"connected to {address!r}")
+
+    monkeypatch.setattr(distributed, "Client", no_connecting)
+    argv = ["sweep", "--grid", "5", "--out", str(tmp_path / "s.parquet"), "--quiet"]
+    assert main([*argv, "--scheduler", address]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(
+        f"xface: error: --scheduler must be an address like tcp://HOST:8786, got {address!r}"
+    )
+    assert err.count("\n") == 1
+
+
+@pytest.mark.parametrize(
+    "address",
+    ["tcp://127.0.0.1:8786", "tcp://[::1]:8786", "tls://sched.example.org:8786", "ws://h:1"],
+)
+def test_well_formed_scheduler_addresses_pass_the_check(address: str) -> None:
+    from xface_core.study.cluster import check_address
+
+    check_address(address)
+
+
 def test_a_worker_that_dies_mid_sweep_has_its_designs_run_elsewhere(
     client: Any, tmp_path: Path
 ) -> None:
