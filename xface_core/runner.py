@@ -9,6 +9,7 @@ engine works in units of D, so outcomes do not depend on the unit.
 from __future__ import annotations
 
 import contextlib
+import importlib.metadata
 import math
 import os
 import threading
@@ -50,6 +51,7 @@ __all__ = [
     "start_height",
     "start_heights",
     "warm_up_engine",
+    "xface_version",
 ]
 
 FloatArray = npt.NDArray[np.float64]
@@ -111,6 +113,15 @@ class EngineState:
         if self.ready:
             return f"ready ({self.source})"
         return f"compiles on first use (about {self.compile_estimate_s:.0f} s of CPU)"
+
+
+def xface_version() -> str:
+    """The installed ``xface`` distribution's version ("unknown" where it runs from a checkout
+    that was never installed): what ``xface --version`` prints and a study table records."""
+    try:
+        return importlib.metadata.version("xface")
+    except importlib.metadata.PackageNotFoundError:
+        return "unknown"
 
 
 def engine_digest() -> str:

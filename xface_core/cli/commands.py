@@ -54,7 +54,7 @@ from xface_core.maps.grids import ThetaGridKind
 from xface_core.maps.paper import PAPER_MEAN_RATIO_XS, PAPER_MEAN_RATIO_XV, mean_ratio, paper_table
 from xface_core.physics import DEFAULT_PHYSICS, Physics
 from xface_core.predict import predict
-from xface_core.runner import engine_is_cached
+from xface_core.runner import engine_is_cached, xface_version
 
 from .progress import ProgressBar, terminal_progress
 from .study import EXIT_INTERRUPTED, add_study_commands, atomic_output
@@ -808,12 +808,8 @@ def _cmd_bench(args: argparse.Namespace) -> int:
 
 
 def _version() -> str:
-    """The installed distribution's version; the package's ``__version__`` where xface runs
-    from a checkout that was never installed."""
-    try:
-        return importlib.metadata.version("xface")
-    except importlib.metadata.PackageNotFoundError:
-        return str(getattr(sys.modules[_CORE], "__version__", "unknown"))
+    """The installed distribution's version (:func:`~xface_core.runner.xface_version`)."""
+    return xface_version()
 
 
 def version_text() -> str:

@@ -38,7 +38,6 @@ from __future__ import annotations
 import contextlib
 import functools
 import hashlib
-import importlib.metadata
 import json
 import os
 import uuid
@@ -152,13 +151,9 @@ def study_settings(
 def writer_version() -> dict[str, str]:
     """This process's versions as stored with the rows it writes: ``xface`` (the installed
     distribution's version) and ``engine`` (SHA-256 of the engine's sources)."""
-    from xface_core.runner import engine_digest
+    from xface_core.runner import engine_digest, xface_version
 
-    try:
-        xface = importlib.metadata.version("xface")
-    except importlib.metadata.PackageNotFoundError:
-        xface = "unknown"
-    return {"xface": xface, "engine": engine_digest()}
+    return {"xface": xface_version(), "engine": engine_digest()}
 
 
 def describe_writers(writers: Sequence[Mapping[str, str]]) -> str:
