@@ -26,6 +26,7 @@ import os
 import re
 import reprlib
 import stat
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -52,8 +53,8 @@ _OPTIONAL = ("name", "width", "mirror_symmetric")
 
 
 def _design_name(design: FaceDesign) -> str:
-    if design.kind == "custom":
-        return "custom face"
+    if design.kind == "custom" or design.name:
+        return design.display_name
     return f"{design.kind}-Face H/D {design.h_over_d:g} r_p {design.r_p:g}"
 
 
@@ -64,7 +65,8 @@ def _polygon(points: Any) -> list[list[float]]:
 def save_face(design: FaceDesign, path: str | Path, *, name: str | None = None) -> Path:
     """Write ``design`` to a face file at ``path`` (YAML, format :data:`FACE_FILE_VERSION`).
 
-    ``name`` defaults to the design's own (``X-Face H/D 0.25 r_p 2``, ``custom face``).
+    ``name`` defaults to the design's own (its ``name``, a loaded file's; else
+    ``X-Face H/D 0.25 r_p 2``, ``custom face``).
     Returns the path written.
 
     Raises
@@ -393,7 +395,17 @@ def _design_from(doc: dict[str, Any]) -> FaceDesign:
         raise FaceFileError("width and mated_distance must be finite")
     base, moving = _layers(doc)
     # custom_face checks the geometry, the coordinates' range and the mirror_symmetric claim.
-    return custom_face(base, moving, mated_distance=mated, width=width, mirror_symmetric=mirror)
+    design = custom_face(base, moving, mated_distance=mated, width=width, mirror_symmetric=mirror)
+    return replace(design, name=_file_name(doc.get("name")))
+
+
+def _file_name(value: object) -> str | None:
+    """The ``name:`` of a file as text names it: on one line (YAML keeps a block's line
+    breaks), None when absent or blank (the design is then called by its file's name)."""
+    if value is None:
+        return None
+    words = str(value).split()
+    return " ".join(words) if words else None
 
 
 def load_face(path: str | Path) -> FaceDesign:
@@ -417,6 +429,8 @@ def load_face(path: str | Path) -> FaceDesign:
     source = Path(path)
     doc = _read(source)
     try:
-        return _design_from(doc)
+        design = _design_from(doc)
     except XfaceValueError as exc:  # GeometryError and FaceFileError included
         raise FaceFileError(f"the face file {str(source)!r}: {exc}") from exc
+    # A file without a name is called by its own: two unnamed files stay apart in text.
+    return design if design.name else replace(design, name=source.stem or str(source))

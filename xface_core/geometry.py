@@ -89,6 +89,10 @@ class FaceDesign:
         True when mirroring x -> -x maps the design onto itself, so that the outcome at
         (x0, theta0) equals the outcome at (-x0, -theta0): the maps and atlases then simulate
         half of their poses and mirror the rest. :func:`custom_face` checks the claim.
+    name : str or None
+        What the design is called in text, titles and tables: a face file's ``name:``
+        (:func:`~xface_core.facefile.load_face`); None for a design built in Python, which
+        is then called by its kind (:attr:`display_name`). Never part of the geometry.
     """
 
     kind: FaceKind
@@ -100,6 +104,15 @@ class FaceDesign:
     moving_layers: tuple[FloatArray, ...] = field(repr=False)
     mirror_symmetric: bool = False
     body_depth: float = 1.0
+    name: str | None = None
+
+    @property
+    def display_name(self) -> str:
+        """The design's name for people: its :attr:`name` if it has one, else ``custom face``
+        or ``X-Face`` (``V-Face``, ``S-Face``)."""
+        if self.name:
+            return self.name
+        return "custom face" if self.kind == "custom" else f"{self.kind}-Face"
 
     @property
     def height(self) -> float:
@@ -134,6 +147,7 @@ class FaceDesign:
             moving_layers=self.moving_layers,
             mirror_symmetric=self.mirror_symmetric,
             body_depth=self.body_depth,
+            name=self.name,
         )
 
     def seated_angle(self, x0: float) -> float:

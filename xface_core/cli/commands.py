@@ -51,7 +51,13 @@ from xface_core.frames import NotFacingError, check_facing
 from xface_core.geometry import FaceDesign, make_face
 from xface_core.maps.acceptance import AcceptanceMap, MTable, Progress, acceptance_map, m_table
 from xface_core.maps.grids import ThetaGridKind
-from xface_core.maps.paper import PAPER_MEAN_RATIO_XS, PAPER_MEAN_RATIO_XV, mean_ratio, paper_table
+from xface_core.maps.paper import (
+    DEPARTURE_FROM_PAPER,
+    PAPER_MEAN_RATIO_XS,
+    PAPER_MEAN_RATIO_XV,
+    mean_ratio,
+    paper_table,
+)
 from xface_core.physics import DEFAULT_PHYSICS, Physics
 from xface_core.predict import predict
 from xface_core.runner import engine_is_cached, xface_version
@@ -238,12 +244,45 @@ def _design(args: argparse.Namespace) -> FaceDesign:
 
 
 def _design_label(design: FaceDesign, *, width: bool = True) -> str:
-    """``X-Face H/D=0.25 r_p=1 D=1`` (``custom face D=0.05``); without ``D=`` if not
-    ``width``."""
+    """``X-Face H/D=0.25 r_p=1 D=1``, a face file's design by its name (``lopsided notch
+    D=0.05``); without ``D=`` if not ``width``."""
     d = f" D={design.width:g}" if width else ""
     if design.kind == "custom":
-        return f"custom face{d}"
+        return f"{design.display_name}{d}"
     return f"{design.kind}-Face H/D={design.h_over_d:g} r_p={design.r_p:g}{d}"
+
+
+def _angle_text(rad: float, spec: str = "+.4g") -> str:
+    """An angle for people: radians, the unit of every number xface reads and writes, with
+    degrees in brackets (``+0.2 rad (+11.46 deg)``); JSON keeps radians alone."""
+    return f"{rad:{spec}} rad ({math.degrees(rad):{spec}} deg)"
+
+
+def _length_text(
+    design: FaceDesign, *values: float, spec: str = ".4g", sep: str = " / ", interval: bool = False
+) -> str:
+    """Lengths for people, in the design's unit: ``0.2 D`` when D is 1, else ``0.01 / 0.012
+    (0.2 / 0.24 D)``: a face file names no unit (its ``width`` is D in the designer's own,
+    metres on the node), so the values in that unit are followed by the same in D.
+    ``interval``: ``[lo, hi]`` for two ends."""
+
+    def joined(scale: float) -> str:
+        text = sep.join(f"{v / scale:{spec}}" for v in values)
+        return f"[{text}]" if interval else text
+
+    if design.width == 1.0:
+        return f"{joined(1.0)} D"
+    return f"{joined(1.0)} ({joined(design.width)} D)"
+
+
+def _units_line(design: FaceDesign) -> str | None:
+    """The line that says what a length means when D is not 1 (None when it is)."""
+    if design.width == 1.0:
+        return None
+    return (
+        f"units     lengths in the unit of the width D = {design.width:g} "
+        "(the face file's or --width), in D in brackets; angles in rad (deg)"
+    )
 
 
 def _physics_args(p: argparse.ArgumentParser) -> None:
@@ -323,32 +362,43 @@ def _cmd_predict(args: argparse.Namespace) -> int:
             out["uncertainty"] = uncertainty
         print(json.dumps(out, default=_json_default))
         return 0
-    unit = "D" if design.width == 1.0 else "length units"
     print(_design_label(design))
-    print(f"start     x0={pred.x0:+.6g}  theta0={pred.theta0:+.6g} rad  y={pred.y_start:.6g}")
+    units = _units_line(design)
+    if units is not None:
+        print(units)
+    y_text = _length_text(design, pred.y_start, spec=".6g")
+    print(
+        f"start     x0={_length_text(design, pred.x0, spec='+.6g')}  "
+        f"theta0={_angle_text(pred.theta0, '+.6g')}  y={y_text}"
+    )
     print(f"outcome   {pred.outcome.name}: {pred.reason}")
     print(
-        f"final     phi_b={pred.phi_b:+.6f} rad  phi_m={pred.phi_m:+.6f} rad  "
+        f"final     phi_b={_angle_text(pred.phi_b, '+.6f')}  "
+        f"phi_m={_angle_text(pred.phi_m, '+.6f')}  "
         f"pivot_m=({pred.pivot_m[0]:+.6g}, {pred.pivot_m[1]:.6g})"
     )
     if pred.margins is not None:
         m = pred.margins
+        lateral = _length_text(design, -m.lateral_minus, m.lateral_plus, spec="+.4g")
         print(
-            f"margins   lateral -{m.lateral_minus:.4g} / +{m.lateral_plus:.4g} {unit}   "
-            f"angle -{m.angle_minus:.4g} / +{m.angle_plus:.4g} rad"
+            f"margins   lateral {lateral}   "
+            f"angle -{m.angle_minus:.4g} / +{m.angle_plus:.4g} rad "
+            f"(-{math.degrees(m.angle_minus):.4g} / +{math.degrees(m.angle_plus):.4g} deg)"
         )
     if uncertainty is not None:
         u = uncertainty
+        sigma_x = _length_text(design, u["sigma_x"], spec="g")
         print(
-            f"P(seat)   {u['seat_probability']:.4f} for sigma_x {u['sigma_x']:g} {unit}, "
-            f"sigma_theta {u['sigma_theta']:g} rad"
+            f"P(seat)   {u['seat_probability']:.4f} for sigma_x {sigma_x}, "
+            f"sigma_theta {_angle_text(u['sigma_theta'], 'g')}"
         )
         if u["suggestion"] is None:
             print(f"suggest   nothing: P(seat) already >= {u['level']:g}")
         elif u["suggestion"]["reached"]:
             g = u["suggestion"]
             print(
-                f"suggest   dx {g['dx']:+.4g} {unit}, dtheta {g['dtheta']:+.4g} rad "
+                f"suggest   dx {_length_text(design, g['dx'], spec='+.4g')}, "
+                f"dtheta {_angle_text(g['dtheta'])} "
                 f"({g['distance']:.3g} sigma) -> P(seat) {g['seat_probability']:.4f}"
             )
         else:
@@ -499,8 +549,8 @@ def _cmd_map(args: argparse.Namespace) -> int:
     }
     print(
         f"{_design_label(design)}: M = {amap.M} of {amap.outcomes.size}  (rows x0 from "
-        f"{amap.x0[-1]:g} down to {amap.x0[0]:g}, columns theta0 from {amap.theta0[0]:.4g} "
-        f"to {amap.theta0[-1]:.4g} rad)"
+        f"{_length_text(design, amap.x0[-1], spec='g')} down to {amap.x0[0]:g}, columns theta0 "
+        f"from {_angle_text(amap.theta0[0])} to {_angle_text(amap.theta0[-1])})"
     )
     # Largest x0 on top, as in the PNG picture (x0 up, theta0 to the right).
     for i in range(len(amap.x0) - 1, -1, -1):
@@ -513,9 +563,11 @@ def _cmd_map(args: argparse.Namespace) -> int:
             print(f"{label}: none")
         else:
             rows, cols = rect  # type: ignore[misc]
+            x_range = _length_text(design, ext[0], ext[1], spec="+.4g", sep=", ", interval=True)
             print(
-                f"{label}: x0 in [{ext[0]:+.4g}, {ext[1]:+.4g}], theta0 in "
-                f"[{ext[2]:+.4f}, {ext[3]:+.4f}] rad ({len(rows)} x {len(cols)} cells)"
+                f"{label}: x0 in {x_range}, "
+                f"theta0 in [{ext[2]:+.4f}, {ext[3]:+.4f}] rad ([{math.degrees(ext[2]):+.4g}, "
+                f"{math.degrees(ext[3]):+.4g}] deg) ({len(rows)} x {len(cols)} cells)"
             )
     return 0
 
@@ -562,6 +614,17 @@ def _compare_b(args: argparse.Namespace) -> argparse.Namespace:
     return b
 
 
+def _widths_note(a: FaceDesign, b: FaceDesign) -> str | None:
+    """When A and B differ in width: the line that says how they are compared (cell by cell
+    at the same x0 / D, each map over its own -D..D), and how to compare at one width."""
+    if a.width == b.width:
+        return None
+    return (
+        f"widths   A D={a.width:g}, B D={b.width:g}: compared in units of D (the same x0 / D "
+        "per cell, each map from -D to D); --width W gives both the width W"
+    )
+
+
 def _cmd_compare(args: argparse.Namespace) -> int:
     from xface_core.viz.mapdiff import SeatedIn, map_difference
 
@@ -588,8 +651,10 @@ def _cmd_compare(args: argparse.Namespace) -> int:
 
         # The panels name the physics when it is not the paper's: a comparison with and
         # without friction would otherwise show two identical titles.
+        widths_differ = sides[0][2].width != sides[1][2].width
         titles = [
             design_title(d)
+            + (f", D = {d.width:g}" if widths_differ else "")
             + (f", friction {ph.friction:g}" if ph.friction else "")
             + (f", c_B/c_M {ph.damping_ratio:g}" if ph.damping_ratio != 1.0 else "")
             for _, ph, d in sides
@@ -621,6 +686,9 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     cells = maps[0].outcomes.size
     print(f"A  {labels[0]}: M = {diff.M_a} of {cells}")
     print(f"B  {labels[1]}: M = {diff.M_b} of {cells}")
+    widths = _widths_note(sides[0][2], sides[1][2])
+    if widths is not None:
+        print(widths)
     print(
         f"seated in both {counts['both']}, only in A {counts['only_a']}, only in B "
         f"{counts['only_b']}, in neither {counts['neither']}; same outcome in "
@@ -705,6 +773,8 @@ def _cmd_table(args: argparse.Namespace) -> int:
             if other in tables:
                 ratio = mean_ratio(x, tables[other].M.astype(float))
                 print(f"mean X/{other} ratio: {ratio:.4f} (paper {paper_ratio})")
+    if any(t.method == "sim" for t in tables.values()):
+        print(f"xface {DEPARTURE_FROM_PAPER}")
     return 0
 
 

@@ -26,6 +26,7 @@ from xface_core.errors import XfaceValueError
 from .grids import PAPER_H_OVER_D, PAPER_R_P
 
 __all__ = [
+    "DEPARTURE_FROM_PAPER",
     "PAPER_MEAN_RATIO_XS",
     "PAPER_MEAN_RATIO_XV",
     "PaperFace",
@@ -42,6 +43,16 @@ PAPER_MEAN_RATIO_XV: Final = 1.8838
 #: Mean over the design space of M(X-Face) / M(S-Face), as printed in Section IV. It cannot
 #: be recomputed from the printed tables alone: two rows of Table IV are missing.
 PAPER_MEAN_RATIO_XS: Final = 2.3846
+
+#: Where and why the simulation departs from the paper's simulated Table II, in one line (the
+#: commands that print simulated M values or recommend a design say it; docs/paper.md has the
+#: cases and the evidence).
+DEPARTURE_FROM_PAPER: Final = (
+    "departs from the paper: with both parts free and two layers, flat teeth at r_p >= 1 seat "
+    "far less (a tilted part's corner turns it away), and with the physical reach "
+    "|x0| <= L = 2 r_p + H/D, r_p = 0 seats far more (the paper's shorter reach r_p + H/2 "
+    "loses it); why, cell by cell: docs/paper.md"
+)
 
 _FILES: Final[dict[str, str]] = {
     "X": "table2_xface_M.csv",

@@ -88,14 +88,22 @@ def cell_edges(values: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
 
 
 def _length_unit(design: FaceDesign) -> str:
-    """The unit x0 is drawn in: D itself, or the design's length unit when D is not 1."""
-    return "D" if design.width == 1.0 else f"length unit, D = {design.width:g}"
+    """The unit x0 is drawn in: D itself, or the design's length unit when D is not 1 (a face
+    file names no unit: its width is D in the designer's own)."""
+    return "D" if design.width == 1.0 else f"your unit, D = {design.width:g}"
+
+
+def _mathtext_safe(text: str) -> str:
+    """``text`` shown as written in a matplotlib title: its ``$`` escaped (a file's name is
+    free text; two dollars would start mathtext, and an odd one makes drawing fail)."""
+    return text.replace("$", r"\$")
 
 
 def design_title(design: FaceDesign) -> str:
-    """A design as a picture's title names it: "X-Face, H/D = 0.25, r_p = 1 D" (mathtext)."""
+    """A design as a picture's title names it: "X-Face, H/D = 0.25, r_p = 1 D" (mathtext);
+    a custom face by its name (a face file's ``name:``)."""
     if design.kind == "custom":
-        return f"custom face, L = {design.mated_distance:g} D"
+        return f"{_mathtext_safe(design.display_name)}, L = {design.mated_distance:g} D"
     return f"{design.kind}-Face, H/D = {design.h_over_d:g}, $r_p$ = {design.r_p:g} D"
 
 
@@ -120,7 +128,7 @@ def _extent_label(
     degrees): the same numbers as ``xface map``'s text and JSON."""
     r0, r1, c0, c1 = rect
     t_lo, t_hi = np.degrees(theta0[c0]), np.degrees(theta0[c1 - 1])
-    unit = "D" if unit == "D" else "(length unit)"
+    unit = "D" if unit == "D" else f"({unit})"
     return (
         f"{name}, {r1 - r0} x {c1 - c0} cells:\n"
         f"$x_0$ in [{x0[r0]:.3g}, {x0[r1 - 1]:.3g}] {unit}\n"

@@ -909,7 +909,7 @@ def _summary(
     d = amap.design
     n, m = outcomes.shape
     if d.kind == "custom":
-        title = f"custom face, L = {d.mated_distance:g} D"
+        title = f"{d.display_name}, L = {d.mated_distance:g} D"
     else:
         title = f"{d.kind}-Face, H/D = {d.h_over_d:g}, r_p = {d.r_p:g} D"
     lines = [

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+from pathlib import Path
 
 import pytest
 
@@ -142,3 +143,43 @@ def test_pose_noise_gives_the_seat_probability_and_a_correction(
 def test_negative_pose_noise_is_a_clear_error(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["predict", "--x0", "0", "--theta0", "0", "--sigma-x", "-1"]) == 2
     assert "xface: error: --sigma-x and --sigma-theta must be finite" in capsys.readouterr().err
+
+
+def test_table_says_where_the_simulation_departs_from_the_paper(
+    capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from dataclasses import replace
+
+    from xface_core.cli import commands
+    from xface_core.maps.acceptance import m_table
+
+    # A simulated table takes minutes: the bound's numbers, labelled as a simulation's.
+    def fake_sim(face: str, **kwargs: object) -> object:
+        return replace(m_table(face, method="bound", theta_kind="paper"), method="sim")
+
+    monkeypatch.setattr(commands, "m_table", fake_sim)
+    assert main(["table", "--face", "V", "--quiet"]) == 0
+    last = capsys.readouterr().out.strip().splitlines()[-1]
+    assert "departs from the paper" in last
+    assert "docs/paper.md" in last
+
+
+def test_predict_text_gives_angles_in_rad_and_deg(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["predict", "--x0", "0", "--theta0", "0.2", "--no-margins"]) == 0
+    assert "theta0=+0.2 rad (+11.4592 deg)" in capsys.readouterr().out
+
+
+def test_predict_text_names_a_face_files_width_as_the_unit(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from xface_core.facefile import save_face
+    from xface_core.geometry import x_face
+
+    path = tmp_path / "trap.yaml"
+    save_face(x_face(0.25, 2.0, width=0.05), path, name="trap")
+    assert main(["predict", "--face-file", str(path), "--x0", "0.01", "--theta0", "0.2",
+                 "--no-margins"]) == 0  # fmt: skip
+    text = capsys.readouterr().out
+    assert text.startswith("trap D=0.05\n")
+    assert "length units" not in text
+    assert "x0=+0.01 (+0.2 D)" in text

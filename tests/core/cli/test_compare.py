@@ -64,3 +64,60 @@ def test_bad_b_value_is_one_error_line(capsys: pytest.CaptureFixture[str]) -> No
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1
     assert err[0].startswith("xface: error:")
+
+
+# --- a designer's own face files -----------------------------------------------------------------
+
+
+def _face_file(tmp_path: Path, stem: str, name: str | None, width: float) -> str:
+    from xface_core.facefile import save_face
+
+    path = tmp_path / f"{stem}.yaml"
+    save_face(make_face("X", 0.25, 2.0, width=width), path, name=name)
+    return str(path)
+
+
+def test_compare_a_face_file_of_another_width_against_a_built_in_face(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    trap = _face_file(tmp_path, "trap", "trap", 0.05)
+    out = _json(capsys, ["compare", "--face-file", trap, "--vs-face", "X", "--rp", "2",
+                         *GRID, "--json"])  # fmt: skip
+    # The file holds the X-Face H/D 0.25 r_p 2 at D = 0.05: in units of D, the same design.
+    assert out["same_outcome"] == 121
+    assert out["seated"]["only_a"] == out["seated"]["only_b"] == 0  # type: ignore[index]
+    assert out["a"]["width"] == 0.05
+    assert out["b"]["width"] == 1.0
+
+
+def test_compare_across_widths_says_how_in_text(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    trap = _face_file(tmp_path, "trap", "trap", 0.05)
+    assert main(["compare", "--vs-face-file", trap, *GRID]) == 0
+    text = capsys.readouterr().out
+    assert "A D=1, B D=0.05: compared in units of D" in text
+    assert "--width" in text
+
+
+def test_compare_names_each_face_file_by_its_name(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    one = _face_file(tmp_path, "one", "lopsided notch", 1.0)
+    two = _face_file(tmp_path, "two", "deep trap", 1.0)
+    out = _json(capsys, ["compare", "--face-file", one, "--vs-face-file", two, *GRID, "--json"])
+    assert out["a"]["label"].startswith("lopsided notch D=1")  # type: ignore[index]
+    assert out["b"]["label"].startswith("deep trap D=1")  # type: ignore[index]
+
+
+def test_compare_calls_an_unnamed_face_file_by_its_file_name(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import yaml
+
+    path = Path(_face_file(tmp_path, "unnamed_trap", None, 1.0))
+    doc = yaml.safe_load(path.read_text())
+    del doc["name"]
+    path.write_text(yaml.safe_dump(doc))
+    out = _json(capsys, ["compare", "--face-file", str(path), "--vs-face", "V", *GRID, "--json"])
+    assert out["a"]["label"].startswith("unnamed_trap D=1")  # type: ignore[index]
