@@ -1,6 +1,8 @@
 """``xface sweep`` and ``xface design``: design studies from the command line.
 
-Comma lists form the product of designs (``--face X,V --h-over-d 0.25,0.5``); results go to
+Comma lists form the product of designs (``--face X,V --h-over-d 0.25,0.5``); face files
+(``--face-file a.yaml,b.yaml``) are fixed designs, one each per friction and damping ratio
+(H/D and r_p do not apply to them; docs/study.md). Results go to
 a Parquet table as they arrive (``--out``), and running the same command again resumes. Local
 processes by default, a Dask cluster with ``--scheduler tcp://HOST:8786`` (the ``cluster``
 extra). A progress bar goes to stderr when it is a terminal (``--quiet``: never). SIGINT and
@@ -12,6 +14,7 @@ from __future__ import annotations
 import argparse
 import errno
 import json
+import math
 import os
 import secrets
 import signal
@@ -24,11 +27,20 @@ from pathlib import Path
 from typing import Any, TextIO
 
 from xface_core.errors import XfaceValueError, XfaceWarning
+from xface_core.facefile import load_face
 from xface_core.maps.grids import PAPER_GRID_SIZE
+from xface_core.maps.paper import DEPARTURE_FROM_PAPER
 from xface_core.study.noise import PoseNoise
 from xface_core.study.run import MAX_STUDY_GRID, StudyProgress, read_study, run_study
-from xface_core.study.search import CRITERIA, PAPER_BOX_H_OVER_D, PAPER_BOX_R_P, search_designs
-from xface_core.study.space import DesignSpace, parse_face_list, parse_number_list
+from xface_core.study.search import (
+    CRITERIA,
+    PAPER_BOX_H_OVER_D,
+    PAPER_BOX_R_P,
+    DesignSearch,
+    rank_face_files,
+    search_designs,
+)
+from xface_core.study.space import DesignSpace, FileFace, parse_face_list, parse_number_list
 
 from . import progress
 
@@ -161,10 +173,30 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         return _sweep(args)
 
 
+def _face_files(text: str | None) -> tuple[FileFace, ...]:
+    """The face files of ``--face-file a.yaml,b.yaml`` (a comma list of paths), each read and
+    checked now (a bad one exits 2 naming it, before anything runs)."""
+    if text is None:
+        return ()
+    paths = [p.strip() for p in text.split(",")]
+    if not all(paths):
+        raise XfaceValueError(f"--face-file: {text!r} is not a comma list of face files")
+    return tuple(FileFace(path, load_face(path)) for path in paths)
+
+
+def _faces(args: argparse.Namespace, files: tuple[FileFace, ...]) -> tuple[str, ...]:
+    """The built-in faces: ``--face``'s, else X, or none when face files are given."""
+    if args.face is not None:
+        return parse_face_list(args.face)
+    return () if files else ("X",)
+
+
 def _sweep(args: argparse.Namespace) -> int:
     _check_grid(args.grid)
+    files = _face_files(args.face_file)
     space = DesignSpace(
-        faces=parse_face_list(args.face),
+        faces=_faces(args, files),
+        face_files=files,
         h_over_d=parse_number_list(args.h_over_d, "--h-over-d"),
         r_p=parse_number_list(args.rp, "--rp"),
         friction=parse_number_list(args.friction, "--friction"),
@@ -215,7 +247,11 @@ def _box(text: str, option: str) -> tuple[float, float]:
 
 
 def _row_text(row: dict[str, Any]) -> str:
-    parts = [f"H/D={row['h_over_d']:<8.5g} r_p={row['r_p']:<7.5g} M={row['M']:<5d}"]
+    if row["face_digest"]:  # a face file: its name and digest, no H/D or r_p
+        design = f"{row['face']} ({row['face_digest']})"
+    else:
+        design = f"H/D={row['h_over_d']:<8.5g} r_p={row['r_p']:<7.5g}"
+    parts = [f"{design} M={row['M']:<5d}"]
     if row["seat_probability"] is not None:
         parts.append(f"P(seat)={row['seat_probability']:.4f} +- {row['seat_probability_se']:.4f}")
     for region in ("guaranteed", "centred"):
@@ -225,9 +261,14 @@ def _row_text(row: dict[str, Any]) -> str:
         parts.append(
             f"{region}: {row[f'{region}_cells']} cells, x0 [{row[f'{region}_x0_min']:+.3g}, "
             f"{row[f'{region}_x0_max']:+.3g}] D, theta0 [{row[f'{region}_theta0_min']:+.3f}, "
-            f"{row[f'{region}_theta0_max']:+.3f}] rad"
+            f"{row[f'{region}_theta0_max']:+.3f}] rad ([{_deg(row[f'{region}_theta0_min'])}, "
+            f"{_deg(row[f'{region}_theta0_max'])}] deg)"
         )
     return "  ".join(parts)
+
+
+def _deg(rad: float) -> str:
+    return f"{math.degrees(rad):+.3g}"
 
 
 def _cmd_design(args: argparse.Namespace) -> int:
@@ -237,12 +278,11 @@ def _cmd_design(args: argparse.Namespace) -> int:
 
 def _design(args: argparse.Namespace) -> int:
     _check_grid(args.grid)
-    kwargs: dict[str, Any] = {
-        "h_over_d": _box(args.h_over_d, "--h-over-d"),
-        "r_p": _box(args.rp, "--rp"),
-        "steps": args.steps,
-        "refine": args.refine,
-        "refine_steps": args.refine_steps,
+    files = _face_files(args.face_file)
+    face = args.face if args.face is not None or files else "X"
+    if args.png and face is None:
+        raise XfaceValueError("--png draws the search's heat map: give --face to search a face")
+    run: dict[str, Any] = {
         "criterion": args.criterion,
         "friction": args.friction,
         "damping_ratio": args.damping_ratio,
@@ -253,54 +293,93 @@ def _design(args: argparse.Namespace) -> int:
         "workers": args.workers,
         "allow_version_mix": args.allow_version_mix,
     }
+    box: dict[str, Any] = {
+        "h_over_d": _box(args.h_over_d, "--h-over-d"),
+        "r_p": _box(args.rp, "--rp"),
+    }
+    search: dict[str, Any] = {
+        "steps": args.steps,
+        "refine": args.refine,
+        "refine_steps": args.refine_steps,
+    }
+    found, file_rows = None, []
     try:
         with _sigterm_interrupts(), _executor(args) as client, _progress(args, "design") as bar:
-            found = search_designs(args.face, executor=client, progress=bar, **kwargs)
+            if face is not None:
+                found = search_designs(face, executor=client, progress=bar, **box, **search, **run)
+            if files:
+                file_rows = rank_face_files(files, executor=client, progress=bar, **run)
     except KeyboardInterrupt:
         if args.out is None:  # the study was in a temporary folder, now removed: no resuming
             raise  # the command line's own "xface: interrupted", exit 130
         return _interrupted(args.out)
+    if args.json:
+        out = {"criterion": args.criterion} if found is None else _search_json(args, found)
+        if files:
+            out["face_files"] = file_rows
+        print(json.dumps(out))
+        return 0
+    if found is not None:
+        _print_search(args, found)
+    if files:
+        _print_face_files(args, file_rows)
+    if found is not None:
+        print(f"xface {DEPARTURE_FROM_PAPER}")
+    return 0
+
+
+def _search_json(args: argparse.Namespace, found: DesignSearch) -> dict[str, Any]:
+    """The search's JSON (and its heat map, with ``--png``)."""
     column = CRITERIA[args.criterion]
-    best_index = tuple(int(k) for k in divmod(int(found.coarse.argmax()), found.coarse.shape[1]))
     if args.png:
         from xface_core.viz.heatmap import save_heatmap_png
 
+        best_index = divmod(int(found.coarse.argmax()), found.coarse.shape[1])
         with atomic_output(args.png, "the picture") as aside:
             save_heatmap_png(
                 found.coarse,
                 found.h_over_d,
                 found.r_p,
                 aside,
-                best=(best_index[0], best_index[1]),
-                title=f"{args.face}-Face: {column} (friction {args.friction:g}), best outlined",
+                best=(int(best_index[0]), int(best_index[1])),
+                title=f"{found.face}-Face: {column} (friction {args.friction:g}), best outlined",
             )
-    runners_up = found.ranked[1 : 1 + max(0, args.top)]
-    if args.json:
-        out = {
-            "criterion": args.criterion,
-            "best": found.best,
-            "coarse_best": found.coarse_best,
-            "runners_up": runners_up,
-            "designs": len(found.ranked),
-            "coarse": {
-                "h_over_d": list(found.h_over_d),
-                "r_p": list(found.r_p),
-                column: found.coarse.tolist(),
-            },
-        }
-        print(json.dumps(out))
-        return 0
+    return {
+        "criterion": args.criterion,
+        "best": found.best,
+        "coarse_best": found.coarse_best,
+        "runners_up": found.ranked[1 : 1 + max(0, args.top)],
+        "designs": len(found.ranked),
+        "coarse": {
+            "h_over_d": list(found.h_over_d),
+            "r_p": list(found.r_p),
+            column: found.coarse.tolist(),
+        },
+    }
+
+
+def _print_search(args: argparse.Namespace, found: DesignSearch) -> None:
+    out = _search_json(args, found)  # writes the heat map too
     print(
-        f"design {args.face}-Face by {args.criterion} ({column}), friction {args.friction:g}, "
-        f"damping ratio {args.damping_ratio:g}, {args.grid} x {args.grid} pose grid: "
-        f"{len(found.h_over_d)} x {len(found.r_p)} coarse grid, {found.rounds} refinement "
-        f"round(s), {len(found.ranked)} designs"
+        f"design {found.face}-Face by {args.criterion} ({CRITERIA[args.criterion]}), "
+        f"friction {args.friction:g}, damping ratio {args.damping_ratio:g}, {args.grid} x "
+        f"{args.grid} pose grid: {len(found.h_over_d)} x {len(found.r_p)} coarse grid, "
+        f"{found.rounds} refinement round(s), {len(found.ranked)} designs"
     )
     print(f"best         {_row_text(found.best)}")
     print(f"coarse best  {_row_text(found.coarse_best)}")
-    for k, row in enumerate(runners_up, start=2):
+    for k, row in enumerate(out["runners_up"], start=2):
         print(f"{k:>2}.          {_row_text(row)}")
-    return 0
+
+
+def _print_face_files(args: argparse.Namespace, rows: list[dict[str, Any]]) -> None:
+    print(
+        f"face files by {args.criterion} ({CRITERIA[args.criterion]}), friction "
+        f"{args.friction:g}, damping ratio {args.damping_ratio:g}, {args.grid} x {args.grid} "
+        f"pose grid: {len(rows)} designs, each fixed (H/D and r_p do not apply to a file)"
+    )
+    for k, row in enumerate(rows, start=1):
+        print(f"{k:>2}.          {_row_text(row)}")
 
 
 def _common_study_args(p: argparse.ArgumentParser) -> None:
@@ -327,7 +406,15 @@ def _common_study_args(p: argparse.ArgumentParser) -> None:
 def add_study_commands(sub: Any) -> None:
     """Add ``sweep`` and ``design`` to the ``xface`` subcommands."""
     p = sub.add_parser("sweep", help="a design study: every design of the product, to Parquet")
-    p.add_argument("--face", default="X", help="comma list of X, V, S")
+    p.add_argument(
+        "--face", default=None, help="comma list of X, V, S (default X, none with --face-file)"
+    )
+    p.add_argument(
+        "--face-file",
+        default=None,
+        help="comma list of face files (docs/facefile.md): one fixed design each, per friction "
+        "and damping ratio; --h-over-d and --rp do not apply to them",
+    )
     p.add_argument("--h-over-d", default="0.25", help="comma list of H/D")
     p.add_argument("--rp", default="2", help="comma list of r_p (widths D)")
     p.add_argument("--friction", default="0", help="comma list of Coulomb mu")
@@ -337,7 +424,18 @@ def add_study_commands(sub: Any) -> None:
     p.set_defaults(func=_cmd_sweep)
 
     p = sub.add_parser("design", help="the best H/D and r_p of a face in a box, by a criterion")
-    p.add_argument("--face", type=str.upper, choices=("X", "V", "S"), default="X")
+    p.add_argument(
+        "--face",
+        type=str.upper,
+        choices=("X", "V", "S"),
+        default=None,
+        help="the face to search (default X, none with --face-file)",
+    )
+    p.add_argument(
+        "--face-file",
+        default=None,
+        help="comma list of face files: each a fixed design, ranked by the criterion",
+    )
     box_h, box_rp = PAPER_BOX_H_OVER_D, PAPER_BOX_R_P
     p.add_argument("--h-over-d", default=f"{box_h[0]:g},{box_h[1]:g}", help="box LO,HI")
     p.add_argument("--rp", default=f"{box_rp[0]:g},{box_rp[1]:g}", help="box LO,HI (widths D)")

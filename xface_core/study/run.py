@@ -1,7 +1,8 @@
 """Design studies: every design of a :class:`~xface_core.study.space.DesignSpace` over one pose
 grid, one table row per design, written to Parquet as results arrive and resumable.
 
-A row holds the design's key (face, H/D, r_p, friction, damping ratio), M (SEATED cells), the
+A row holds the design's key (face, H/D, r_p, friction, damping ratio, face digest: a face
+file's name, null H/D and r_p, and the digest of its geometry), M (SEATED cells), the
 count of every outcome, the two guaranteed-acceptance rectangles (cells and extents: x0 in D,
 theta0 in rad; null when there is none), with a pose noise the mean seat probability over
 the grid and its standard error (:mod:`xface_core.study.noise`; null without), and

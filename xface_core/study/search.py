@@ -14,7 +14,8 @@ cells of the largest all-SEATED rectangle; ``"centred"``, the cells of the large
 centred on the aligned pose; ``"seat_probability"``, the mean seat probability over the
 grid under a pose noise (:mod:`xface_core.study.noise`; every design sees the same draws).
 Ties go to the smaller H/D, then the smaller r_p (the first in the table's row-major
-order).
+order). Face files are fixed designs with nothing to search: :func:`rank_face_files` runs
+each once and ranks them by the same criteria.
 """
 
 from __future__ import annotations
@@ -38,9 +39,16 @@ from xface_core.physics import DEFAULT_SETTINGS, SolverSettings
 from .executors import ClientLike
 from .noise import PoseNoise
 from .run import StudyProgress, read_study, run_study
-from .space import DesignPoint, DesignSpace, FaceFamily
+from .space import DesignPoint, DesignSpace, FaceFamily, FileFace
 
-__all__ = ["CRITERIA", "Criterion", "DesignSearch", "box_nodes", "search_designs"]
+__all__ = [
+    "CRITERIA",
+    "Criterion",
+    "DesignSearch",
+    "box_nodes",
+    "rank_face_files",
+    "search_designs",
+]
 
 Criterion = Literal["M", "guaranteed", "centred", "seat_probability"]
 
@@ -142,6 +150,47 @@ def _check(criterion: str, steps: int, refine: int, refine_steps: int, box: Any)
             raise XfaceValueError(f"the {name} box must be two finite values lo < hi")
 
 
+def _study_rows(space: DesignSpace, path: Path, **run: Any) -> list[dict[str, Any]]:
+    """The table rows of ``space``'s designs, run (or resumed) in the study at ``path``."""
+    run_study(space, path, **run)
+    wanted = set(space.points())
+    table = read_study(path).to_pylist()
+    return [r for r in table if DesignPoint(*(r[k] for k in DesignPoint._fields)) in wanted]
+
+
+def rank_face_files(
+    files: Sequence[FileFace],
+    *,
+    criterion: str = "M",
+    friction: float = 0.0,
+    damping_ratio: float = 1.0,
+    out: str | os.PathLike[str] | None = None,
+    **run: Any,
+) -> list[dict[str, Any]]:
+    """The study-table rows of the face files ``files`` (fixed designs: nothing to search)
+    at one friction and damping ratio, best first by ``criterion`` (ties by name, then
+    digest). ``out`` keeps the rows (the same table a search may share, resumable); ``run``
+    takes :func:`~xface_core.study.run.run_study`'s other keywords (grid, noise, ...).
+    """
+    if criterion not in CRITERIA:
+        raise XfaceValueError(f"criterion must be one of {', '.join(CRITERIA)}, got {criterion!r}")
+    if criterion == "seat_probability" and run.get("noise") is None:
+        raise XfaceValueError("the seat_probability criterion needs a pose noise (sigma_x, ...)")
+    space = DesignSpace(
+        faces=(),
+        h_over_d=(),
+        r_p=(),
+        friction=(friction,),
+        damping_ratio=(damping_ratio,),
+        face_files=tuple(files),
+    )
+    with tempfile.TemporaryDirectory(prefix="xface-design-") as tmp:
+        path = Path(tmp) / "files.parquet" if out is None else Path(out)
+        rows = _study_rows(space, path, **run)
+    column = CRITERIA[criterion]
+    return sorted(rows, key=lambda r: (-r[column], r["face"], r["face_digest"]))
+
+
 def search_designs(
     face: str = "X",
     *,
@@ -195,7 +244,7 @@ def search_designs(
                 damping_ratio=(damping_ratio,),
                 families=dict(families or {}),
             )
-            run_study(
+            return _study_rows(
                 space,
                 path,
                 grid=grid,
@@ -207,9 +256,6 @@ def search_designs(
                 progress=progress,
                 allow_version_mix=allow_version_mix,
             )
-            wanted = set(space.points())
-            table = read_study(path).to_pylist()
-            return [r for r in table if DesignPoint(*(r[k] for k in DesignPoint._fields)) in wanted]
 
         hs = box_nodes(*h_over_d, steps, geometric=True)
         rps = box_nodes(*r_p, steps, geometric=False)

@@ -71,7 +71,7 @@ __all__ = [
 ]
 
 #: The columns that name a design; together they are its key.
-KEY_COLUMNS = ("face", "h_over_d", "r_p", "friction", "damping_ratio")
+KEY_COLUMNS = ("face", "h_over_d", "r_p", "friction", "damping_ratio", "face_digest")
 
 #: Columns that depend on the machine, not on the physics: left out of equality checks.
 TIMING_COLUMNS = ("seconds",)
@@ -110,7 +110,9 @@ def outcome_column(outcome: Outcome) -> str:
     return f"n_{outcome.name.lower()}"
 
 
-def _schema() -> Any:
+def _schema(*, digest: bool = True) -> Any:
+    """The columns of a study table; without ``digest``, those of a table written before
+    face files joined the studies (read as if every row had an empty ``face_digest``)."""
     import pyarrow as pa
 
     fields: list[tuple[str, Any]] = [
@@ -119,6 +121,7 @@ def _schema() -> Any:
         ("r_p", pa.float64()),
         ("friction", pa.float64()),
         ("damping_ratio", pa.float64()),
+        *([("face_digest", pa.string())] if digest else []),
         ("M", pa.int64()),
         *((outcome_column(o), pa.int64()) for o in Outcome),
     ]
@@ -237,7 +240,9 @@ def _read_piece(file: Path) -> _Piece:
     meta = table.schema.metadata or {}
     if _META_KEY not in meta:
         raise _NotAStudy("no study settings in it")
-    if not table.schema.remove_metadata().equals(_schema()):
+    columns = table.schema.remove_metadata()
+    before_face_files = columns.equals(_schema(digest=False))
+    if not (before_face_files or columns.equals(_schema())):
         raise _NotAStudy("its columns are not those of a study table")
     try:
         settings = json.loads(meta[_META_KEY])
@@ -252,6 +257,9 @@ def _read_piece(file: Path) -> _Piece:
                 raise _Damaged("its contents do not match its checksum")
     except (KeyError, ValueError, TypeError, UnicodeDecodeError) as exc:
         raise _Damaged(f"its study metadata is unreadable ({exc})") from None
+    if before_face_files:  # checked as written; then read as a table of today
+        digests = pa.array([""] * table.num_rows, pa.string())
+        table = table.add_column(KEY_COLUMNS.index("face_digest"), "face_digest", digests)
     return _Piece(file, table, settings, writers)
 
 

@@ -222,7 +222,7 @@ def test_xface_design_prints_the_best_and_the_runners_up(
     lines = capsys.readouterr().out.splitlines()
     assert lines[1].startswith("best ")
     assert lines[2].startswith("coarse best ")
-    assert [ln.split()[0] for ln in lines[3:]] == ["2.", "3.", "4."]
+    assert [ln.split()[0] for ln in lines[3:-1]] == ["2.", "3.", "4."]
 
 
 @pytest.mark.parametrize(
@@ -260,3 +260,77 @@ def test_the_progress_bar_counts_designs_done_and_skipped() -> None:
     assert "[#######.......................] 1/4 designs (2 already done)" in last
     assert "about 6 s left" in last
     assert stream.getvalue().endswith("\n")
+
+
+# --- face files in sweep and design -------------------------------------------------------------
+
+
+def test_xface_design_says_where_the_simulation_departs_from_the_paper(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    argv = ["design", "--face", "X", "--steps", "2", "--refine", "0", "--grid", "5"]
+    assert main([*argv, "--workers", "1", "--quiet"]) == 0
+    last = capsys.readouterr().out.splitlines()[-1]
+    assert "departs from the paper" in last
+    assert "docs/paper.md" in last
+
+
+def _face_files(tmp_path: Path) -> tuple[str, str]:
+    """Two face files both named "trap": an X-Face at D = 0.05 and a taller one at D = 1."""
+    one, two = tmp_path / "trap.yaml", tmp_path / "other" / "trap.yaml"
+    two.parent.mkdir()
+    xf.save_face(xf.x_face(0.25, 2.0, width=0.05), one, name="trap")
+    xf.save_face(xf.x_face(1.0, 2.0), two, name="trap")
+    return str(one), str(two)
+
+
+def test_sweep_takes_face_files_as_fixed_designs_named_by_their_name(tmp_path: Path) -> None:
+    one, two = _face_files(tmp_path)
+    out = tmp_path / "s.parquet"
+    argv = ["sweep", "--face-file", f"{one},{two}", "--friction", "0,0.2", "--h-over-d", "1,2"]
+    assert main([*argv, "--grid", "5", "--workers", "1", "--out", str(out), "--quiet"]) == 0
+    rows = read_study(out).to_pylist()
+    # One row per file and friction; --h-over-d does not apply to a file.
+    assert len(rows) == 4
+    assert {r["face"] for r in rows} == {"trap"}
+    assert len({r["face_digest"] for r in rows}) == 2
+    assert all(r["h_over_d"] is None and r["r_p"] is None for r in rows)
+    # The X-Face H/D 0.25 r_p 2 through a file: the built-in face's M (the study runs in D).
+    built_in = tmp_path / "x.parquet"
+    argv = ["sweep", "--face", "X", "--h-over-d", "0.25", "--rp", "2", "--grid", "5"]
+    assert main([*argv, "--workers", "1", "--out", str(built_in), "--quiet"]) == 0
+    m_built_in = read_study(built_in)["M"].to_pylist()[0]
+    from xface_core.study.space import face_digest
+
+    digest = face_digest(xf.load_face(one))
+    assert [r["M"] for r in rows if r["face_digest"] == digest and r["friction"] == 0.0] == [
+        m_built_in
+    ]
+
+
+def test_design_ranks_face_files_by_the_criterion(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    one, two = _face_files(tmp_path)
+    argv = ["design", "--face-file", f"{one},{two}", "--grid", "5", "--workers", "1", "--quiet"]
+    assert main([*argv, "--json"]) == 0
+    ranked = json.loads(capsys.readouterr().out)["face_files"]
+    assert [r["face"] for r in ranked] == ["trap", "trap"]
+    assert ranked[0]["M"] >= ranked[1]["M"]
+    assert main(argv) == 0
+    text = capsys.readouterr().out
+    assert "do not apply to a file" in text
+    assert f"trap ({ranked[0]['face_digest']})" in text
+
+
+def test_a_bad_face_file_in_a_sweep_is_one_line_and_exit_code_2(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("xface_face: 1\n")
+    out = tmp_path / "s.parquet"
+    assert main(["sweep", "--face-file", str(bad), "--out", str(out), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("xface: error: the face file")
+    assert err.count("\n") == 1
+    assert not out.exists()

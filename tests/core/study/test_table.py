@@ -323,3 +323,44 @@ def test_a_damaged_or_mixed_study_is_refused_or_read_right_never_crashes(
     hostile: Any, what: tuple[str, int, list[tuple[float, int]]]
 ) -> None:
     hostile(what)
+
+
+# --- face files in the table ----------------------------------------------------------------
+
+
+def _file_face(name: str, h_over_d: float) -> Any:
+    from dataclasses import replace
+
+    from xface_core.study.space import FileFace
+
+    return FileFace(f"{name}.yaml", replace(xf.x_face(h_over_d, 2.0), name=name))
+
+
+def test_two_face_files_of_one_name_are_two_rows_and_resume(tmp_path: Path) -> None:
+    files = (_file_face("trap", 0.25), _file_face("trap", 0.5))
+    space = DesignSpace(faces=(), h_over_d=(), r_p=(), face_files=files)
+    out = tmp_path / "files.parquet"
+    assert run_study(space, out, grid=GRID, workers=1).computed == 2
+    again = run_study(space, out, grid=GRID, workers=1)
+    assert (again.computed, again.skipped) == (0, 2)
+    table = read_study(out)
+    assert table["face"].to_pylist() == ["trap", "trap"]
+    assert sorted(table["face_digest"].to_pylist()) == sorted(f.digest for f in files)
+    assert table["h_over_d"].to_pylist() == [None, None]
+
+
+def test_a_table_written_before_face_files_is_read_and_resumed(tmp_path: Path) -> None:
+    from xface_core.study import table as study_table
+
+    out = tmp_path / "old.parquet"
+    run_study(FIRST_HALF, out, grid=GRID, workers=1)
+    # The same table as the version before face files wrote it: no face_digest column.
+    written = pq.read_table(out)
+    meta = written.schema.metadata
+    old = written.drop_columns(["face_digest"]).replace_schema_metadata(None)
+    settings_of_study = json.loads(meta[b"xface.study"])
+    writers = json.loads(meta[b"xface.writers"])
+    pq.write_table(study_table._with_metadata(old, settings_of_study, writers), out)
+    again = run_study(SPACE, out, grid=GRID, workers=1)
+    assert (again.computed, again.skipped) == (2, 2)
+    assert read_study(out)["face_digest"].to_pylist() == [""] * 4
