@@ -9,6 +9,7 @@ each design's width.
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -31,6 +32,11 @@ __all__ = ["DIFFERENCE_COLORS", "comparison_figure", "save_comparison"]
 #: A fraction of the panel's height, as before, put the legends over the axis labels on
 #: grids of 21 nodes and fewer (a 126-pixel panel: 16 % is 20 pixels).
 LEGEND_DROP_POINTS = 46.0
+
+#: Smallest side of a panel, in pixels, when the scale is chosen here: the y-axis label is
+#: about this long, and the tick labels of a 66-pixel panel (11 nodes at 6 pixels) ran into
+#: each other and the label into the title.
+MIN_PANEL_PIXELS = 200
 
 #: Colour per :class:`SeatedIn` value: Okabe-Ito blue / orange for "only A" / "only B" (the
 #: pair told apart with every common colour-vision deficiency), the maps' SEATED green for
@@ -61,7 +67,8 @@ def save_comparison(
 ) -> MapDifference:
     """Write A, B and their difference map side by side to ``path`` (PNG or SVG, ``fmt`` or
     the suffix); ``labels`` are the panels' first title lines (default: the designs);
-    ``scale`` pixels per cell side (default: 6 on grids up to 83 nodes, fewer above).
+    ``scale`` pixels per cell side (default: 6 on grids from 34 to 83 nodes, fewer above, more
+    below: a panel is at least :data:`MIN_PANEL_PIXELS` wide).
 
     Returns
     -------
@@ -111,7 +118,12 @@ def comparison_figure(
     x0, theta0, outcomes = checked_grid(a)
     n, m = outcomes.shape
     # Three panels: smaller cells than one map's (6 pixels on the usual 41 x 41 grid).
-    scale = cell_pixels(outcomes.shape, most=6, room=500) if scale is None else check_scale(scale)
+    if scale is None:
+        # Small grids get larger cells: a panel narrower than its own labels crowds them.
+        fitted = cell_pixels(outcomes.shape, most=6, room=500)
+        scale = max(fitted, math.ceil(MIN_PANEL_PIXELS / max(n, m)))
+    else:
+        scale = check_scale(scale)
     fig = new_figure()
     first = fig.add_axes((0.1, 0.1, 0.2, 0.5))
     # Shared axes: the difference panel gets the maps' limits and ticks.

@@ -143,3 +143,30 @@ def test_compare_picture_labels_do_not_overlap_its_legends(
             assert not box.overlaps(legend_box), (grid, text.get_text())
     for i, one in enumerate(legend_boxes):
         assert not any(one.overlaps(other) for other in legend_boxes[i + 1 :])
+
+
+def _drawn_texts(fig: Figure) -> list[Text]:
+    """The visible texts matplotlib draws: tick labels only of ticks inside their axis's view
+    (the others exist, unseen)."""
+    hidden = set()
+    for ax in fig.axes:
+        for axis in (ax.xaxis, ax.yaxis):
+            lo, hi = sorted(axis.get_view_interval())
+            for tick in [*axis.get_major_ticks(), *axis.get_minor_ticks()]:
+                if not lo - 1e-9 <= tick.get_loc() <= hi + 1e-9:
+                    hidden |= {id(tick.label1), id(tick.label2)}
+    return [t for t in fig.findobj(Text) if t.get_visible() and id(t) not in hidden]
+
+
+@pytest.mark.parametrize("grid", [11, 21, 41])
+def test_compare_picture_texts_do_not_overlap_each_other(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path, grid: int
+) -> None:
+    # Titles, axis labels, tick labels and legend entries: no two meet.
+    fig = _drawn_figure(monkeypatch, tmp_path, grid)
+    renderer = fig.canvas.get_renderer()  # type: ignore[attr-defined]
+    texts = [t for t in _drawn_texts(fig) if t.get_text().strip()]
+    boxes = [(t.get_text(), t.get_window_extent(renderer)) for t in texts]
+    for i, (text, box) in enumerate(boxes):
+        for other, other_box in boxes[i + 1 :]:
+            assert not box.overlaps(other_box), (grid, text, other)
