@@ -284,7 +284,8 @@ class _Predictor(Node):
     def _describe(config: NodeConfig) -> str:
         if config.face == CUSTOM_FACE:
             return (
-                f"custom face {config.face_file} D={config.width_m:g} m "
+                f"custom face '{config.design.display_name}' ({config.face_file}) "
+                f"D={config.width_m:g} m "
                 f"c_B/c_M={config.damping_ratio:g} friction={config.friction:g}"
             )
         return (

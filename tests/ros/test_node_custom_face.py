@@ -154,3 +154,13 @@ def limit_memory() -> None:
     """In the node's process: at most 4 GiB of address space (it needs about 1.2), so a node
     that reads /dev/zero fails soon instead of filling the machine's memory."""
     resource.setrlimit(resource.RLIMIT_AS, (4 << 30, 4 << 30))
+
+
+def test_the_node_describes_a_face_file_by_its_name(face_file: Path) -> None:
+    from xface_ros.config import SPECS, config_from_values
+    from xface_ros.node import XfacePredictor
+
+    values = {spec.name: spec.default for spec in SPECS}
+    config = config_from_values({**values, "face": "custom", "face_file": str(face_file)})
+    text = XfacePredictor._describe(config)
+    assert text.startswith(f"custom face 'lopsided notch' ({face_file}) D=")
