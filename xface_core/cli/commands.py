@@ -239,7 +239,7 @@ def _design(args: argparse.Namespace) -> FaceDesign:
     if args.face_file is not None:
         design = load_face(args.face_file)
         if getattr(args, "width", None) is not None:
-            design = replace(design, width=args.width)
+            design = design.with_width(args.width)  # checked: finite and > 0
         return design
     width = getattr(args, "width", None)
     return make_face(args.face, args.h_over_d, args.rp, width=1.0 if width is None else width)

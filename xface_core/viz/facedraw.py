@@ -21,6 +21,7 @@ drawing needs the ``cad`` extra alone.
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import TYPE_CHECKING, Literal, NamedTuple
 
@@ -39,6 +40,7 @@ if TYPE_CHECKING:
     from xface_core.viz.figures import PictureFormat
 
 __all__ = [
+    "MAX_LABEL_CHARS",
     "FaceDrawing",
     "PartOutline",
     "PartsAtPose",
@@ -106,6 +108,23 @@ class FaceDrawing(NamedTuple):
     start_pose: StartPose | None
 
 
+#: Longest title and unit name drawn (characters): a face file's free-text name may be long
+#: (up to the file's 1 MiB), and a picture as wide as that would not be drawn at all.
+MAX_LABEL_CHARS = 120
+
+
+def _one_line_label(text: str | None) -> str | None:
+    """``text`` on one line (every run of white space, line breaks included, one space: a DXF
+    value cannot hold a line break), at most :data:`MAX_LABEL_CHARS` characters (cut with an
+    ellipsis); None for None or blank text."""
+    if text is None:
+        return None
+    line = " ".join(text.split())
+    if len(line) > MAX_LABEL_CHARS:
+        line = line[: MAX_LABEL_CHARS - 1] + "\u2026"
+    return line or None
+
+
 def _design_label(design: FaceDesign) -> str:
     """A built-in design's plain-text name: "X-Face, H/D = 0.25, r_p = 1 D"."""
     if design.kind == "custom":
@@ -140,7 +159,8 @@ def face_drawing(
 
     ``name`` (a face file's ``name:``) titles the drawing (default: the built-in label);
     ``unit`` names the length unit (default: "D" when ``design.width`` is 1, else
-    "length unit, D = <width>").
+    "length unit, D = <width>"). Both are drawn on one line, cut to
+    :data:`MAX_LABEL_CHARS` characters.
 
     Raises
     ------
@@ -165,12 +185,11 @@ def face_drawing(
         y_start_d = start_height(design, theta0)  # predict's default start, units of D
         start_pose = StartPose(x0, theta0, y_start_d * w)
         start = _parts_at(design, x0 / w, y_start_d, theta0)
-    if unit is None:
-        unit = "D" if w == 1.0 else f"length unit, D = {w:g}"
+    title, unit = _one_line_label(name), _one_line_label(unit)
     return FaceDrawing(
         design=design,
-        title=_design_label(design) if name is None else name,
-        unit=unit,
+        title=_design_label(design) if title is None else title,
+        unit=(f"length unit, D = {w:g}" if w != 1.0 else "D") if unit is None else unit,
         mated=_parts_at(design, 0.0, design.mated_distance, 0.0),
         start=start,
         start_pose=start_pose,
@@ -179,7 +198,7 @@ def face_drawing(
 
 def face_file_labels(path: str | Path) -> tuple[str | None, str | None]:
     """(name, unit) of a face file, for :func:`face_drawing`: its ``name:`` and ``unit:``
-    when they are text (None otherwise).
+    when they are text (None otherwise; a name such as ``name: 42`` is not drawn).
 
     The file goes through the face-file reader's own checks (size, nesting, aliases: the
     limits of docs/facefile.md); :func:`~xface_core.facefile.load_face` keeps neither key in
@@ -193,10 +212,7 @@ def face_file_labels(path: str | Path) -> tuple[str | None, str | None]:
     """
     doc = read_face_file_checked(Path(path))
     name, unit = doc.get("name"), doc.get("unit")
-    return (
-        name if isinstance(name, str) and name.strip() else None,
-        unit if isinstance(unit, str) and unit.strip() else None,
-    )
+    return (name if isinstance(name, str) else None, unit if isinstance(unit, str) else None)
 
 
 # --- the picture (matplotlib) -----------------------------------------------------------------
@@ -211,6 +227,8 @@ _PIVOT_COLOR = "#000000"
 #: Pixels per length unit are chosen so that the larger side of the largest panel has this
 #: many pixels.
 _PANEL_PX = 420
+#: Pixels above and beside the design's title.
+_TITLE_MARGIN_PX = 10
 
 
 def _extent(parts: PartsAtPose) -> tuple[float, float, float, float]:
@@ -249,8 +267,8 @@ def _draw_panel(ax: Axes, parts: PartsAtPose, heading: str, unit: str, legend: b
     ax.set_xlim(x_min, x_max)
     ax.set_ylim(y_min, y_max)
     ax.set_aspect("equal")
-    ax.set_xlabel(f"x ({unit})")
-    ax.set_ylabel(f"y ({unit})")
+    ax.set_xlabel(f"x ({unit})", parse_math=False)
+    ax.set_ylabel(f"y ({unit})", parse_math=False)
     ax.set_title(heading, fontsize=10)
     ax.grid(True, linewidth=0.5, color="#dddddd")
 
@@ -285,23 +303,36 @@ def draw_face(drawing: FaceDrawing) -> Figure:
         sized.append((ax, *size))
     last = sized[-1][0]
     last.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=9, frameon=False)
-    fig.suptitle(drawing.title, fontsize=11)
     fit_axes(fig, sized, gap=20)
-    _place_title(fig)
+    _place_title(fig, drawing.title)
     return fig
 
 
-def _place_title(fig: Figure) -> None:
-    """The figure's title above the highest axes' own title (fit_axes left room for the
-    axes' decorations only, so the figure grows by one line at the top)."""
-    width, height = fig.get_size_inches()
-    extra = 0.3  # inches: one 11 pt line and a gap
-    fig.set_size_inches(width, height + extra)
+def _place_title(fig: Figure, title: str) -> None:
+    """The design's title centred above the panels, as plain text (a face file's name may
+    hold ``$`` or ``\\``, which mathtext would try to parse): the figure grows at the top by
+    the title's height, and in width when the title is wider; the panels keep their size in
+    pixels (:func:`~xface_core.viz.figures.fit_axes` lays out the axes' own text only)."""
+    from xface_core.viz.figures import DPI
+
+    text = fig.suptitle(title, fontsize=11, va="top", parse_math=False)
+    box = text.get_window_extent(fig.canvas.get_renderer())  # type: ignore[attr-defined]
+    old_w, old_h = (round(v * DPI) for v in fig.get_size_inches())
+    new_w = max(old_w, math.ceil(box.width) + 2 * _TITLE_MARGIN_PX)
+    new_h = old_h + math.ceil(box.height) + _TITLE_MARGIN_PX
+    shift = (new_w - old_w) // 2  # whole pixels: the panels stay on the pixel grid
     for ax in fig.axes:
-        box = ax.get_position()
-        shrink = height / (height + extra)
-        ax.set_position((box.x0, box.y0 * shrink, box.width, box.height * shrink))
-    fig.suptitle(fig.get_suptitle(), y=1.0 - 0.05 / (height + extra), va="top", fontsize=11)
+        b = ax.get_position()
+        ax.set_position(
+            (
+                (b.x0 * old_w + shift) / new_w,
+                b.y0 * old_h / new_h,
+                b.width * old_w / new_w,
+                b.height * old_h / new_h,
+            )
+        )
+    fig.set_size_inches(new_w / DPI, new_h / DPI)
+    text.set_y(1.0 - _TITLE_MARGIN_PX / new_h)
 
 
 def save_face_picture(

@@ -87,6 +87,19 @@ def test_draw_titles_the_drawing_with_the_face_files_name(tmp_path: Path) -> Non
     assert header.custom_vars.get("xface_unit") == "length unit, D = 0.04"
 
 
+@pytest.mark.parametrize("width", ["nan", "inf", "0", "-0.04"])
+def test_draw_refuses_a_width_that_is_not_finite_and_positive_for_a_face_file(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], width: str
+) -> None:
+    face = save_face(LOPSIDED, tmp_path / "lop.yaml")
+    png = tmp_path / "f.png"
+    assert main(["draw", "--face-file", str(face), "--width", width, "--png", str(png)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("xface: error: width must be")
+    assert err.count("\n") == 1
+    assert not png.exists()
+
+
 def test_draw_without_an_output_is_refused(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["draw", "--face", "V"]) == 2
     assert capsys.readouterr().err == (

@@ -21,6 +21,7 @@ from xface_core.geometry import FaceDesign, custom_face, s_face, v_face, x_face
 from xface_core.predict import predict
 from xface_core.viz.facecad import dxf_document, save_face_dxf
 from xface_core.viz.facedraw import (
+    MAX_LABEL_CHARS,
     FaceDrawing,
     PartOutline,
     draw_face,
@@ -168,6 +169,35 @@ def test_face_files_name_titles_the_picture(tmp_path: Path) -> None:
     assert (name, unit) == ("lopsided notch", None)
     fig = draw_face(face_drawing(LOPSIDED, name=name, unit=unit))
     assert fig.get_suptitle() == "lopsided notch"
+
+
+@pytest.mark.parametrize("name", ["$\\nosuchcommand$ notch", "x $a^$ y", "$\\frac{1}$"])
+def test_a_name_with_mathtext_characters_is_drawn_as_written(tmp_path: Path, name: str) -> None:
+    drawing = face_drawing(LOPSIDED, name=name, unit="$\\mu$m$")
+    save_face_picture(drawing, tmp_path / "f.png")  # mathtext would raise on each
+    fig = draw_face(drawing)
+    assert fig.get_suptitle() == name
+    assert fig.axes[0].get_xlabel() == "x ($\\mu$m$)"
+
+
+def test_a_long_name_on_many_lines_is_drawn_on_one_line_within_the_limit() -> None:
+    name = "notch\n" + "x" * 5000
+    drawing = face_drawing(LOPSIDED, name=name)
+    assert drawing.title == "notch " + "x" * (MAX_LABEL_CHARS - 7) + "\u2026"
+    assert len(drawing.title) == MAX_LABEL_CHARS
+    assert face_drawing(LOPSIDED, name=" \n ").title == "custom face, L = 2.3 D"
+
+
+def test_a_title_wider_than_the_panels_widens_the_picture(tmp_path: Path) -> None:
+    short = save_face_picture(face_drawing(LOPSIDED, name="n"), tmp_path / "short.png")
+    wide = face_drawing(LOPSIDED, name="w" * MAX_LABEL_CHARS)
+    fig = draw_face(wide)
+    title = fig.texts[0].get_window_extent(fig.canvas.get_renderer())
+    assert title.x0 >= 0
+    assert title.x1 <= fig.get_size_inches()[0] * fig.dpi
+    with Image.open(short) as a, Image.open(save_face_picture(wide, tmp_path / "w.png")) as b:
+        assert b.width > a.width
+        assert b.height == a.height  # one line either way
 
 
 def test_built_in_face_is_titled_by_its_label() -> None:
