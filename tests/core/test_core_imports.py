@@ -16,8 +16,12 @@ import pytest
 ROOT = Path(__file__).resolve().parents[2]
 
 #: Top-level modules of the viz extra (rerun-sdk brings rerun_bindings), of the crosscheck
-#: extra (pymunk), of the study and cluster extras (pyarrow, dask) and of ROS.
-BLOCKED = ("rerun", "rerun_bindings", "PIL", "rclpy", "pymunk", "pyarrow", "dask", "distributed")
+#: extra (pymunk), of the study and cluster extras (pyarrow, dask), of the cad extra (ezdxf)
+#: and of ROS.
+BLOCKED = (
+    "rerun", "rerun_bindings", "PIL", "rclpy", "pymunk", "pyarrow", "dask", "distributed",
+    "ezdxf",
+)  # fmt: skip
 
 # A fresh interpreter with a meta-path finder that refuses the blocked modules, so imports
 # behave as in an environment where `pip install .` installed the simulator alone.
@@ -75,7 +79,7 @@ def run_blocked(code: str, *args: str, cwd: Path = ROOT) -> subprocess.Completed
     )
 
 
-@pytest.mark.parametrize("module", ["rerun", "PIL", "rclpy"])
+@pytest.mark.parametrize("module", ["rerun", "PIL", "rclpy", "ezdxf"])
 def test_blocker_makes_the_extras_unimportable(module: str) -> None:
     # Guards the tests below: without this they would pass with a blocker that blocks nothing.
     result = run_blocked(f"import {module}")
@@ -101,6 +105,7 @@ def test_core_imports_and_simulates_without_the_extras() -> None:
         (["map", "--face", "V", "--grid", "11", "--rrd", "out.rrd"], "--rrd"),
         (["predict", "--x0", "0.3", "--theta0", "0.2", "--rrd", "out.rrd"], "--rrd"),
         (["bench", "--quick", "--out", "bench"], "bench"),
+        (["draw", "--face", "V", "--svg", "out.svg"], "--svg"),
     ],
 )
 def test_cli_option_without_the_viz_extra_exits_2_with_one_line(
@@ -114,6 +119,15 @@ def test_cli_option_without_the_viz_extra_exits_2_with_one_line(
     )
     assert result.stdout == ""
     assert list(tmp_path.iterdir()) == []  # refused before simulating or writing anything
+
+
+def test_draw_dxf_without_the_cad_extra_exits_2_with_one_line(tmp_path: Path) -> None:
+    result = run_blocked(_CLI, "draw", "--dxf", "out.dxf", cwd=tmp_path)
+    assert result.returncode == 2, result.stderr
+    assert result.stderr == (
+        "xface: --dxf needs the cad extra: pip install '.[cad]' in the xface checkout\n"
+    )
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_a_sweep_without_the_study_extra_exits_2_with_one_line(tmp_path: Path) -> None:

@@ -7,9 +7,10 @@ y-start are read, and lengths printed, in that unit. Plain text by default, ``--
 machines. Recordings (``--rrd``), pictures (``--png``, ``--svg``) and the bench plot need the
 ``viz`` extra (rerun-sdk, matplotlib); without it they exit with code 2 and say so, before
 simulating.
-``xface crosscheck`` needs the ``crosscheck`` extra (pymunk) in the same way.
+``xface crosscheck`` needs the ``crosscheck`` extra (pymunk) in the same way, ``xface draw
+--dxf`` the ``cad`` extra (ezdxf).
 A number takes every spelling ``float`` reads, negative ones too (``--x0 -1e-3``). The names
-given to ``--png``, ``--svg``, ``--rrd`` and ``--out`` are checked before anything runs
+given to ``--png``, ``--svg``, ``--rrd``, ``--dxf`` and ``--out`` are checked before anything runs
 (docs/recording.md: not empty, UTF-8, a file not ending in a separator, the format's suffix).
 
 Exit codes: 0 done; 2 a user error (one ``xface: error: ...`` line on stderr), also for a
@@ -35,7 +36,7 @@ import re
 import signal
 import sys
 import threading
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import replace
 from functools import partial
 from pathlib import Path
@@ -95,7 +96,9 @@ class _CrosscheckMissing(Exception):
 
 def _check_viz(args: argparse.Namespace) -> None:
     """Import the viz modules the chosen options need, before any simulation runs."""
-    pictures = {"design": "heatmap", "compare": "comparefig"}
+    # draw's pictures: facedraw imports matplotlib only when it draws (its DXF must not need
+    # it), so the check imports the module every picture draws through.
+    pictures = {"design": "heatmap", "compare": "comparefig", "draw": "figures"}
     needed = [
         (option, pictures.get(args.command, module) if name != "rrd" else module)
         for name, option, module in _VIZ_OPTIONS
@@ -152,6 +155,7 @@ _OUTPUT_FORMATS = {
     "png": (".png", "a PNG picture"),
     "svg": (".svg", "an SVG picture"),
     "rrd": (".rrd", "a rerun recording"),
+    "dxf": (".dxf", "a DXF drawing"),
 }
 
 
@@ -190,9 +194,9 @@ def _check_output_name(name: str, option: str, *, folder: bool) -> None:
 
 def _check_output_names(args: argparse.Namespace) -> None:
     """Every file or folder the command will write is named well (:func:`_check_output_name`):
-    ``--png``, ``--svg``, ``--rrd``, and ``--out`` (a study's Parquet file; the bench's
-    folder)."""
-    for name in ("png", "svg", "rrd", "out"):
+    ``--png``, ``--svg``, ``--rrd``, ``--dxf``, and ``--out`` (a study's Parquet file; the
+    bench's folder)."""
+    for name in ("png", "svg", "rrd", "dxf", "out"):
         value = getattr(args, name, None)
         if value is not None:
             folder = name == "out" and args.command == "bench"
@@ -220,14 +224,18 @@ def _face_args(p: argparse.ArgumentParser) -> None:
     )
 
 
-def _design_args(p: argparse.ArgumentParser) -> None:
-    _face_args(p)
+def _width_arg(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--width",
         type=float,
         default=None,
         help="face width D (length unit; default 1, or the face file's)",
     )
+
+
+def _design_args(p: argparse.ArgumentParser) -> None:
+    _face_args(p)
+    _width_arg(p)
     _physics_args(p)
     p.add_argument("--json", action="store_true", help="machine-readable output")
 
@@ -237,7 +245,7 @@ def _design(args: argparse.Namespace) -> FaceDesign:
     if args.face_file is not None:
         design = load_face(args.face_file)
         if getattr(args, "width", None) is not None:
-            design = replace(design, width=args.width)
+            design = design.with_width(args.width)  # checked: finite and > 0
         return design
     width = getattr(args, "width", None)
     return make_face(args.face, args.h_over_d, args.rp, width=1.0 if width is None else width)
@@ -871,6 +879,46 @@ def _crosscheck_lines(r: Any) -> list[str]:
     return lines
 
 
+#: What to install for ``xface draw --dxf``.
+_CAD_HINT = "pip install '.[cad]' in the xface checkout"
+
+
+def _cmd_draw(args: argparse.Namespace) -> int:
+    """``xface draw``: the design's outlines as pictures and a DXF (docs/recording.md)."""
+    if not (args.png or args.svg or args.dxf):
+        raise XfaceValueError("draw needs at least one of --png, --svg, --dxf")
+    if (args.x0 is None) != (args.theta0 is None):
+        raise XfaceValueError("draw: give both --x0 and --theta0 (a start pose), or neither")
+    if args.dxf:
+        try:
+            importlib.import_module(f"{_CORE}.viz.facecad")
+        except ImportError as exc:
+            if (exc.name or "").partition(".")[0] != "ezdxf":
+                raise  # a bug of ours, not a missing extra
+            _say(f"xface: --dxf needs the cad extra: {_CAD_HINT}")
+            return 2
+    from xface_core.viz.facedraw import face_drawing, face_file_labels, save_face_picture
+
+    design = _design(args)
+    name, unit = (None, None) if args.face_file is None else face_file_labels(args.face_file)
+    pose = None if args.x0 is None else (args.x0, args.theta0)
+    drawing = face_drawing(design, pose=pose, name=name, unit=unit)
+    writers: dict[str, tuple[str, Callable[[str], object]]] = {
+        "png": ("the picture", partial(save_face_picture, drawing, fmt="png")),
+        "svg": ("the picture", partial(save_face_picture, drawing, fmt="svg")),
+    }
+    if args.dxf:
+        from xface_core.viz.facecad import save_face_dxf
+
+        writers["dxf"] = ("the drawing", partial(save_face_dxf, drawing))
+    for option, (what, write) in writers.items():
+        target = getattr(args, option)
+        if target:
+            with atomic_output(target, what) as aside:
+                write(aside)
+    return 0
+
+
 def _cmd_bench(args: argparse.Namespace) -> int:
     from .bench import run_bench
 
@@ -1022,6 +1070,18 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
     p.add_argument("--json", action="store_true", help="machine-readable output")
     p.set_defaults(func=_cmd_crosscheck)
+
+    p = sub.add_parser(
+        "draw", help="draw a design's two parts, mated and at a start pose (PNG, SVG, DXF)"
+    )
+    _face_args(p)
+    _width_arg(p)
+    p.add_argument("--x0", type=float, default=None, help="start pose: lateral offset (length)")
+    p.add_argument("--theta0", type=float, default=None, help="start pose: initial angle (rad)")
+    p.add_argument("--png", default=None, help="write the drawing as a PNG picture")
+    p.add_argument("--svg", default=None, help="write the drawing as an SVG picture")
+    p.add_argument("--dxf", default=None, help="write the outlines as a DXF drawing (cad extra)")
+    p.set_defaults(func=_cmd_draw)
 
     add_study_commands(sub)
 
