@@ -897,12 +897,11 @@ def _cmd_draw(args: argparse.Namespace) -> int:
                 raise  # a bug of ours, not a missing extra
             _say(f"xface: --dxf needs the cad extra: {_CAD_HINT}")
             return 2
-    from xface_core.viz.facedraw import face_drawing, face_file_labels, save_face_picture
+    from xface_core.viz.facedraw import face_drawing, save_face_picture
 
-    design = _design(args)
-    name, unit = (None, None) if args.face_file is None else face_file_labels(args.face_file)
+    design = _design(args)  # a face file's design carries its name (FaceDesign.name)
     pose = None if args.x0 is None else (args.x0, args.theta0)
-    drawing = face_drawing(design, pose=pose, name=name, unit=unit)
+    drawing = face_drawing(design, pose=pose)
     writers: dict[str, tuple[str, Callable[[str], object]]] = {
         "png": ("the picture", partial(save_face_picture, drawing, fmt="png")),
         "svg": ("the picture", partial(save_face_picture, drawing, fmt="svg")),

@@ -28,7 +28,6 @@ from typing import TYPE_CHECKING, Literal, NamedTuple
 import numpy as np
 import numpy.typing as npt
 
-from xface_core.facefile import _read as read_face_file_checked
 from xface_core.frames import check_facing
 from xface_core.geometry import FaceDesign
 from xface_core.runner import check_pose, start_height
@@ -47,7 +46,6 @@ __all__ = [
     "StartPose",
     "draw_face",
     "face_drawing",
-    "face_file_labels",
     "save_face_picture",
 ]
 
@@ -157,7 +155,8 @@ def face_drawing(
     """The geometry of a drawing of ``design``: both parts mated and, with ``pose = (x0,
     theta0)`` (design's length unit, rad; predict's conventions), at predict's start pose.
 
-    ``name`` (a face file's ``name:``) titles the drawing (default: the built-in label);
+    ``name`` titles the drawing (default: the design's own name, a face file's ``name:``
+    (:attr:`~xface_core.geometry.FaceDesign.name`), else its built-in label);
     ``unit`` names the length unit (default: "D" when ``design.width`` is 1, else
     "length unit, D = <width>"). Both are drawn on one line, cut to
     :data:`MAX_LABEL_CHARS` characters.
@@ -185,7 +184,7 @@ def face_drawing(
         y_start_d = start_height(design, theta0)  # predict's default start, units of D
         start_pose = StartPose(x0, theta0, y_start_d * w)
         start = _parts_at(design, x0 / w, y_start_d, theta0)
-    title, unit = _one_line_label(name), _one_line_label(unit)
+    title, unit = _one_line_label(name if name is not None else design.name), _one_line_label(unit)
     return FaceDrawing(
         design=design,
         title=_design_label(design) if title is None else title,
@@ -194,25 +193,6 @@ def face_drawing(
         start=start,
         start_pose=start_pose,
     )
-
-
-def face_file_labels(path: str | Path) -> tuple[str | None, str | None]:
-    """(name, unit) of a face file, for :func:`face_drawing`: its ``name:`` and ``unit:``
-    when they are text (None otherwise; a name such as ``name: 42`` is not drawn).
-
-    The file goes through the face-file reader's own checks (size, nesting, aliases: the
-    limits of docs/facefile.md); :func:`~xface_core.facefile.load_face` keeps neither key in
-    the design, so they are read here. Format 1 has no ``unit:`` yet (the loader refuses
-    unknown keys): a file that names one is drawn in it once the format takes it.
-
-    Raises
-    ------
-    FaceFileError
-        The file cannot be read or is not a face file's YAML.
-    """
-    doc = read_face_file_checked(Path(path))
-    name, unit = doc.get("name"), doc.get("unit")
-    return (name if isinstance(name, str) else None, unit if isinstance(unit, str) else None)
 
 
 # --- the picture (matplotlib) -----------------------------------------------------------------

@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 from PIL import Image
 
 from xface_core.errors import InputError
-from xface_core.facefile import save_face
+from xface_core.facefile import load_face, save_face
 from xface_core.geometry import FaceDesign, custom_face, s_face, v_face, x_face
 from xface_core.predict import predict
 from xface_core.viz.facecad import dxf_document, save_face_dxf
@@ -26,7 +26,6 @@ from xface_core.viz.facedraw import (
     PartOutline,
     draw_face,
     face_drawing,
-    face_file_labels,
     save_face_picture,
 )
 
@@ -165,9 +164,7 @@ def test_picture_shows_a_start_panel_only_with_a_pose() -> None:
 
 def test_face_files_name_titles_the_picture(tmp_path: Path) -> None:
     path = save_face(LOPSIDED, tmp_path / "lop.yaml", name="lopsided notch")
-    name, unit = face_file_labels(path)
-    assert (name, unit) == ("lopsided notch", None)
-    fig = draw_face(face_drawing(LOPSIDED, name=name, unit=unit))
+    fig = draw_face(face_drawing(load_face(path)))
     assert fig.get_suptitle() == "lopsided notch"
 
 
