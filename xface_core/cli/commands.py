@@ -484,6 +484,7 @@ def _map_json(amap: AcceptanceMap) -> dict[str, Any]:
     names = np.array([o.name for o in Outcome])
     return {
         "face": amap.design.kind,
+        "label": _design_label(amap.design),  # a face file's design by its name
         "h_over_d": amap.design.h_over_d,
         "r_p": amap.design.r_p,
         "width": amap.design.width,
