@@ -365,6 +365,65 @@ class Work(NamedTuple):
     :func:`~.segment.start_segment`)."""
 
 
+class Segment(NamedTuple):
+    """What is fixed along one smooth segment of the path (units of D, rad): the step
+    context every stage of the segment takes whole (Box2D's ``b2StepContext``), and the
+    motion's kernels too (:func:`~.motion.velocity`, :func:`~.integrate.rk_step`)."""
+
+    pairs: FloatArray
+    act: IntArray
+    """Active contacts (first ``n_active``)."""
+    n_active: int
+    mu: float
+    """Coulomb coefficient at every contact."""
+    slip: IntArray
+    """Friction states of the active contacts (see :class:`Work`)."""
+    x0: float
+    y_floor: float
+    """Seat height less the seat tolerance: below it a seat is out of reach."""
+    sqrt_winv_b: float
+    sqrt_winv_m: float
+    winv_b: float
+    winv_m: float
+    step_memo: FloatArray
+    """Steps already integrated in this segment (:func:`~.events.step_to`; emptied by
+    :func:`~.events.clear_step_memo` whenever a segment begins)."""
+    dense: FloatArray
+    """Dense output of the last step integrated and of the trial step
+    (:func:`~.events.keep_trial_dense`, :func:`~.events.angles_at`)."""
+
+
+class Step(NamedTuple):
+    """A trial step: its start state and its length in descent."""
+
+    phi_b: float
+    phi_m: float
+    y_m: float
+    h: float
+
+
+@njit(inline="always")
+def held_contacts(
+    model: Model, opts: Options, work: Work, n_active: int, mu: float, x0: float, y_floor: float
+) -> Segment:
+    """The :class:`Segment` of the first ``n_active`` contacts of ``work.act`` held with
+    Coulomb coefficient ``mu``, the moving pivot at ``x0`` (D). Inlined, so the tuple of
+    arrays is built under the caller's reference counting (none in the engine)."""
+    return Segment(
+        model.pairs, work.act, n_active, mu, work.slip, x0, y_floor, opts.sqrt_winv_b,
+        opts.sqrt_winv_m, opts.winv_b, opts.winv_m, work.step_memo, work.dense,
+    )  # fmt: skip
+
+
+@njit(inline="always")
+def frictionless(seg: Segment) -> Segment:
+    """``seg`` with its contacts frictionless (``mu`` 0), for the rate friction turns."""
+    return Segment(
+        seg.pairs, seg.act, seg.n_active, 0.0, seg.slip, seg.x0, seg.y_floor, seg.sqrt_winv_b,
+        seg.sqrt_winv_m, seg.winv_b, seg.winv_m, seg.step_memo, seg.dense,
+    )  # fmt: skip
+
+
 @njit_cached
 def new_work(model: Model, opts: Options) -> Work:
     """Fresh scratch arrays for one run (or a batch of runs, :func:`reset_work` between

@@ -13,8 +13,6 @@ from .events import (
     NO_EVENT,
     QUARTER_SLOTS,
     Event,
-    Segment,
-    Step,
     angles_at,
     contact_value,
     earlier,
@@ -22,11 +20,10 @@ from .events import (
     has_dense,
     locate,
     quarter_state,
-    segment_velocity,
     start_velocity,
     step_to,
 )
-from .motion import slip_margin
+from .motion import slip_margin, velocity
 from .pairs import (
     COL_EDGE_LENGTH,
     COL_REACH,
@@ -56,6 +53,8 @@ from .records import (
     U_TOL,
     FloatArray,
     Options,
+    Segment,
+    Step,
     Trig,
     Work,
     njit_inline,
@@ -93,7 +92,7 @@ def _active_events(
             lo, hk = locate(seg, step, tol, E_RELEASE, pair, k, 0.0)
             kind = E_RELEASE
             pbk, pmk, _, _, _ = step_to(seg, step, lo)
-            wb, wm, m1, m2 = segment_velocity(seg, pbk, pmk, step.y_m - lo)
+            wb, wm, m1, m2 = velocity(seg, pbk, pmk, step.y_m - lo)
             sb, sm, s1, s2 = start_velocity(seg, step)
             pole = abs(m1 if k == 0 else m2) > 1e-6 * max(1.0, abs(s1 if k == 0 else s2))
             # With friction the forces also have a pole where the friction-turned normals
@@ -123,10 +122,7 @@ def _slip_events(
     for k in range(seg.n_active):
         if seg.slip[k] == FREE:
             continue
-        margin = slip_margin(
-            seg.pairs, seg.act, seg.n_active, k, nb, nm, seg.x0, y1, seg.sqrt_winv_b,
-            seg.sqrt_winv_m, seg.mu, seg.slip,
-        )  # fmt: skip
+        margin = slip_margin(seg, k, nb, nm, y1)
         if margin < 0.0:
             _, hk = locate(seg, step, opts.event_tol, E_SLIP, seg.act[k], k, 0.0)
             kind = E_SLIP
@@ -332,7 +328,7 @@ def _gap_bounds(
                 cb, sb, cm, sm, vb, vm = quarter_state(seg, k, pb, pm, y)
             else:
                 cb, sb, cm, sm = math.cos(pb), math.sin(pb), math.cos(pm), math.sin(pm)
-                vb, vm, _, _ = segment_velocity(seg, pb, pm, y)
+                vb, vm, _, _ = velocity(seg, pb, pm, y)
         elif pieces > 1:
             if k == 0:
                 vb, vm, _, _ = start_velocity(seg, step)

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import xface_core as xf
-from xface_core._engine.events import NO_EVENT, Segment, Step, step_to
+from xface_core._engine.events import NO_EVENT, step_to
 from xface_core._engine.pairs import eval_all_pairs, pair_at
 from xface_core._engine.records import (
     CORNER_REACH,
@@ -18,6 +18,8 @@ from xface_core._engine.records import (
     FREE,
     STEP_MEMO_SLOTS,
     STEP_MEMO_WIDTH,
+    Segment,
+    Step,
     Work,
     make_options,
 )

@@ -5,7 +5,6 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from xface_core._engine.events import Step
 from xface_core._engine.pairs import COL_REACH
 from xface_core._engine.records import (
     E_CONTACT,
@@ -14,6 +13,7 @@ from xface_core._engine.records import (
     RUN_DTYPE,
     UNDECIDED,
     Model,
+    Step,
     make_options,
     new_work,
 )
