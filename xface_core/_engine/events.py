@@ -160,7 +160,7 @@ def solve_or_integrate(
     0), else, or where that declines, integrated (:func:`~.integrate.rk_step`). Its dense
     output goes to row 0 of ``seg.dense``."""
     one = Step(step.phi_b, step.phi_m, step.y_m, t)
-    if pins_path(seg.n_active, seg.winv_b, seg.mu):
+    if pins_path(seg.held.n_active, seg.held.winv_b, seg.held.mu):
         nb, nm, ok = pinned_step(seg, one, k1b, k1m)
         if ok:
             return nb, nm, 0.0, 0.0, True
@@ -203,7 +203,7 @@ def quarter_state(
     memo = seg.step_memo
     col = QUARTER_STATE + QUARTER_WIDTH * (k - 1)
     if not _remembers(memo, col, col + 9, pb, pm, ym):
-        vb, vm, _, _ = velocity(seg, pb, pm, ym)
+        vb, vm, _, _ = velocity(seg.held, pb, pm, ym)
         memo[0, col], memo[0, col + 1], memo[0, col + 2] = pb, pm, ym
         memo[0, col + 3], memo[0, col + 4] = vb, vm
         memo[0, col + 5], memo[0, col + 6] = math.cos(pb), math.sin(pb)
@@ -223,7 +223,7 @@ def _remembered_velocity(
     for the last state asked there."""
     memo = seg.step_memo
     if not _remembers(memo, col, col + 7, pb, pm, ym):
-        vb, vm, l1, l2 = velocity(seg, pb, pm, ym)
+        vb, vm, l1, l2 = velocity(seg.held, pb, pm, ym)
         memo[0, col], memo[0, col + 1], memo[0, col + 2] = pb, pm, ym
         memo[0, col + 3], memo[0, col + 4], memo[0, col + 5], memo[0, col + 6] = vb, vm, l1, l2
         memo[0, col + 7] = 1.0
@@ -271,22 +271,22 @@ def event_value(
     """
     if kind == E_CONTACT:
         cb, sb, cm, sm = math.cos(pb), math.sin(pb), math.cos(pm), math.sin(pm)
-        return contact_value(seg.pairs[idx], thr, (cb, sb, cm, sm), seg.x0, ym)
+        return contact_value(seg.held.pairs[idx], thr, (cb, sb, cm, sm), seg.held.x0, ym)
     if kind == E_RELEASE:
-        _, _, l1, l2 = velocity(seg, pb, pm, ym)
+        _, _, l1, l2 = velocity(seg.held, pb, pm, ym)
         lam = l1 if slot == 0 else l2
-        if seg.mu > 0.0 and seg.n_active == 2:
+        if seg.held.mu > 0.0 and seg.held.n_active == 2:
             # The slack with which interval._both_push holds two frictional contacts.
             return lam + PUSH_SLACK * max(abs(l1), abs(l2))
         return lam
     if kind == E_OFF_EDGE:
-        _, u, _, _, _, _, _, _, _ = pair_at(seg.pairs, idx, pb, pm, seg.x0, ym)
+        _, u, _, _, _, _, _, _, _ = pair_at(seg.held.pairs, idx, pb, pm, seg.held.x0, ym)
         # A vertex trapped in a corner sits at u = 0 or 1 up to round-off: not an event.
         return min(u + U_TOL, 1.0 + U_TOL - u)
     if kind == E_BELOW_SEAT:
         return ym - seg.y_floor
     if kind == E_SLIP:
-        return slip_margin(seg, slot, pb, pm, ym)
+        return slip_margin(seg.held, slot, pb, pm, ym)
     # E_SPUN
     return math.pi - max(abs(pb), abs(pm))
 

@@ -128,7 +128,7 @@ def _with_friction(
     """
     pb, pm, x0, ym = run.phi_b, run.phi_m, run.x0, run.y_m
     table, act, ev, cand, rays = model.pairs, work.act, work.ev, work.cand, work.rays
-    two = held_contacts(model, opts, work, 2, opts.friction, x0, run.y_floor)
+    two = held_contacts(model, opts, work, 2, opts.friction, x0)
     if n_new == 2:
         friction_modes(two, pb, pm, ym, v0b, v0m)
         vb, vm, l1, l2 = velocity(two, pb, pm, ym)
@@ -172,7 +172,7 @@ def _one_contact_rate(
 ) -> tuple[bool, float, float]:
     """The slip state of the one contact ``work.act[0]`` (``work.slip``) and its frictional
     rate ``(ok, v_b, v_m)``; ok is False when no slip state is consistent."""
-    one = held_contacts(model, opts, work, 1, opts.friction, run.x0, run.y_floor)
+    one = held_contacts(model, opts, work, 1, opts.friction, run.x0)
     if not friction_modes(one, run.phi_b, run.phi_m, run.y_m, v0b, v0m):
         return False, 0.0, 0.0
     fb, fm, _, _ = velocity(one, run.phi_b, run.phi_m, run.y_m)
@@ -220,7 +220,7 @@ def _keeps_excluded(model: Model, opts: Options, run: Run, work: Work, n_new: in
     pb, pm, x0, ym = run.phi_b, run.phi_m, run.x0, run.y_m
     vb, vm = 0.0, 0.0
     if n_new > 0:
-        held = held_contacts(model, opts, work, n_new, opts.friction, x0, run.y_floor)
+        held = held_contacts(model, opts, work, n_new, opts.friction, x0)
         vb, vm, _, _ = velocity(held, pb, pm, ym)
     return rate_keeps_contacts(
         model.pairs, work.ev, work.exclude, run.n_excluded, work.act, n_new, pb, pm, x0, ym,

@@ -365,10 +365,12 @@ class Work(NamedTuple):
     :func:`~.segment.start_segment`)."""
 
 
-class Segment(NamedTuple):
-    """What is fixed along one smooth segment of the path (units of D, rad): the step
-    context every stage of the segment takes whole (Box2D's ``b2StepContext``), and the
-    motion's kernels too (:func:`~.motion.velocity`, :func:`~.integrate.rk_step`)."""
+class Contacts(NamedTuple):
+    """The active contacts and the metric the parts move in (units of D, rad): all that the
+    rate (:func:`~.motion.velocity`), the projection and the pinned solves need. A kernel
+    call passes every field of its arguments, and numba inlines none of these: the rate,
+    asked for seven times a step and more in every event search, takes this, not the whole
+    :class:`Segment` (whose step memo and dense output it does not read)."""
 
     pairs: FloatArray
     act: IntArray
@@ -379,12 +381,22 @@ class Segment(NamedTuple):
     slip: IntArray
     """Friction states of the active contacts (see :class:`Work`)."""
     x0: float
-    y_floor: float
-    """Seat height less the seat tolerance: below it a seat is out of reach."""
+    """The moving part's pivot's x (D)."""
     sqrt_winv_b: float
     sqrt_winv_m: float
     winv_b: float
     winv_m: float
+    """The least-dissipation metric W^-1 (and its square roots) of the base and the moving
+    part (see :class:`Options`)."""
+
+
+class Segment(NamedTuple):
+    """What is fixed along one smooth segment of the path: the step context every stage of
+    the segment takes whole (Box2D's ``b2StepContext``)."""
+
+    held: Contacts
+    y_floor: float
+    """Seat height less the seat tolerance (D): below it a seat is out of reach."""
     step_memo: FloatArray
     """Steps already integrated in this segment (:func:`~.events.step_to`; emptied by
     :func:`~.events.clear_step_memo` whenever a segment begins)."""
@@ -404,23 +416,23 @@ class Step(NamedTuple):
 
 @njit(inline="always")
 def held_contacts(
-    model: Model, opts: Options, work: Work, n_active: int, mu: float, x0: float, y_floor: float
-) -> Segment:
-    """The :class:`Segment` of the first ``n_active`` contacts of ``work.act`` held with
-    Coulomb coefficient ``mu``, the moving pivot at ``x0`` (D). Inlined, so the tuple of
-    arrays is built under the caller's reference counting (none in the engine)."""
-    return Segment(
-        model.pairs, work.act, n_active, mu, work.slip, x0, y_floor, opts.sqrt_winv_b,
-        opts.sqrt_winv_m, opts.winv_b, opts.winv_m, work.step_memo, work.dense,
+    model: Model, opts: Options, work: Work, n_active: int, mu: float, x0: float
+) -> Contacts:
+    """The first ``n_active`` contacts of ``work.act`` held with Coulomb coefficient ``mu``,
+    the moving pivot at ``x0`` (D). Inlined, so the tuple of arrays is built under the
+    caller's reference counting (none in the engine)."""
+    return Contacts(
+        model.pairs, work.act, n_active, mu, work.slip, x0, opts.sqrt_winv_b, opts.sqrt_winv_m,
+        opts.winv_b, opts.winv_m,
     )  # fmt: skip
 
 
 @njit(inline="always")
-def frictionless(seg: Segment) -> Segment:
-    """``seg`` with its contacts frictionless (``mu`` 0), for the rate friction turns."""
-    return Segment(
-        seg.pairs, seg.act, seg.n_active, 0.0, seg.slip, seg.x0, seg.y_floor, seg.sqrt_winv_b,
-        seg.sqrt_winv_m, seg.winv_b, seg.winv_m, seg.step_memo, seg.dense,
+def frictionless(held: Contacts) -> Contacts:
+    """``held`` without friction (``mu`` 0), for the rate that friction turns."""
+    return Contacts(
+        held.pairs, held.act, held.n_active, 0.0, held.slip, held.x0, held.sqrt_winv_b,
+        held.sqrt_winv_m, held.winv_b, held.winv_m,
     )  # fmt: skip
 
 

@@ -67,7 +67,8 @@ def _segment(model: Model, opts: Options, run: Run, work: Work) -> Segment:
     """What stays fixed along the segment just started. Inlined, so the tuple of arrays is
     built under the caller's reference counting (none in the engine, numba's for a caller
     in Python)."""
-    return held_contacts(model, opts, work, run.n_active, opts.friction, run.x0, run.y_floor)
+    held = held_contacts(model, opts, work, run.n_active, opts.friction, run.x0)
+    return Segment(held, run.y_floor, work.step_memo, work.dense)
 
 
 @njit_no_refcount
@@ -81,7 +82,8 @@ def start_segment(
     only once it closes past its current gap (less the touching tolerance).
     """
     act, n = work.act, run.n_active
-    qb, qm = project(_segment(model, opts, run, work), run.phi_b, run.phi_m, run.y_m)
+    held = held_contacts(model, opts, work, n, opts.friction, run.x0)
+    qb, qm = project(held, run.phi_b, run.phi_m, run.y_m)
     turn = 0.0  # how far the projection turned the parts
     if max(abs(qb - run.phi_b), abs(qm - run.phi_m)) < 1e-6:
         turn = abs(qb - run.phi_b) + abs(qm - run.phi_m)
@@ -242,7 +244,7 @@ def advance_to_event(
         y_ev = step.y_m - ev.h
         tb, tm = run.phi_b, run.phi_m
         for _ in range(20):
-            tb, tm = project(seg, tb, tm, y_ev)
+            tb, tm = project(seg.held, tb, tm, y_ev)
         # The turn lies within this step, which turns the parts by at most MAX_TURN: a
         # projection further away converged to another solution of the contacts (seen: 0.49
         # rad away, the parts 1.5 D^2 inside each other at a pivot on the seat line).

@@ -22,6 +22,7 @@ from xface_core._engine.records import (
     FREE,
     STEP_MEMO_SLOTS,
     STEP_MEMO_WIDTH,
+    Contacts,
     Segment,
     Step,
 )
@@ -82,9 +83,10 @@ class Incline:
         act = np.array([0, 1, -1, -1][:n_active] + [-1] * (4 - n_active), dtype=np.int64)
         if slip is None:
             slip = np.full(2, FREE, dtype=np.int64)
+        held = Contacts(self.table, act, n_active, mu, slip, self.x0, math.sqrt(winv_b), 1.0,
+                        winv_b, 1.0)  # fmt: skip
         return Segment(
-            self.table, act, n_active, mu, slip, self.x0, y_floor,
-            math.sqrt(winv_b), 1.0, winv_b, 1.0, np.zeros((STEP_MEMO_SLOTS + 1, STEP_MEMO_WIDTH)),
+            held, y_floor, np.zeros((STEP_MEMO_SLOTS + 1, STEP_MEMO_WIDTH)),
             np.zeros((2, DENSE_WIDTH)),
         )  # fmt: skip
 

@@ -14,7 +14,7 @@ from xface_core.physics import DEFAULT_SETTINGS
 def _dense_step(incline, h: float) -> tuple[float, float, np.ndarray]:
     """One projected step down the incline, its end angles and its dense output."""
     seg = incline.segment()
-    k1b, k1m, _, _ = velocity(seg, 0.0, incline.phi_m0, incline.y0)
+    k1b, k1m, _, _ = velocity(seg.held, 0.0, incline.phi_m0, incline.y0)
     nb, nm, _, _, ok = rk_step(seg, incline.step(h), k1b, k1m)
     assert ok
     return nb, nm, seg.dense
@@ -24,8 +24,9 @@ def _step(incline, h: float, *, projected: bool = True) -> tuple[float, float, f
     """One step down the held incline from its exact start. Without ``projected`` the
     projection is given no metric to move in (W^-1 = 0), leaving the bare Dormand-Prince
     step; the rate itself uses the held base's W^-1 = diag(0, 1) either way."""
-    seg = incline.segment()._replace(winv_m=1.0 if projected else 0.0)
-    k1b, k1m, _, _ = velocity(seg, 0.0, incline.phi_m0, incline.y0)
+    seg = incline.segment()
+    seg = seg._replace(held=seg.held._replace(winv_m=1.0 if projected else 0.0))
+    k1b, k1m, _, _ = velocity(seg.held, 0.0, incline.phi_m0, incline.y0)
     return rk_step(seg, incline.step(h), k1b, k1m)
 
 
@@ -56,7 +57,7 @@ def test_projection_brings_one_contact_back_along_the_metric(incline) -> None:
     # Base free with W^-1 = diag(1/4, 1): the correction runs along W^-1 a.
     pb, pm, ym = 0.0, incline.phi_m0 + 1e-3, incline.y0
     assert abs(incline.gap(0, pm, ym, pb)) > 1e-4
-    qb, qm = project(incline.segment(winv_b=0.25), pb, pm, ym)
+    qb, qm = project(incline.segment(winv_b=0.25).held, pb, pm, ym)
     assert abs(incline.gap(0, qm, ym, qb)) <= 2e-15
     _, _, a_b, a_m, *_ = pair_at(incline.table, 0, pb, pm, incline.x0, ym)
     along = np.array([0.25 * a_b, a_m])
@@ -69,13 +70,13 @@ def test_projection_brings_two_contacts_back(incline) -> None:
     ym = incline.y0 - incline.s_touch
     pb, pm = 2e-3, incline.phi_m_at(incline.s_touch) - 1e-3
     assert min(abs(incline.gap(0, pm, ym, pb)), abs(incline.gap(1, pm, ym, pb))) > 1e-4
-    qb, qm = project(incline.segment(n_active=2, winv_b=1.0), pb, pm, ym)
+    qb, qm = project(incline.segment(n_active=2, winv_b=1.0).held, pb, pm, ym)
     assert abs(incline.gap(0, qm, ym, qb)) <= 2e-15
     assert abs(incline.gap(1, qm, ym, qb)) <= 2e-15
 
 
 def test_projection_of_a_held_base_leaves_it_alone(incline) -> None:
-    qb, qm = project(incline.segment(), 0.0, incline.phi_m0 - 1e-3, incline.y0)
+    qb, qm = project(incline.segment().held, 0.0, incline.phi_m0 - 1e-3, incline.y0)
     assert qb == 0.0
     assert qm == pytest.approx(incline.phi_m0, abs=1e-15)
 

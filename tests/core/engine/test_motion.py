@@ -149,7 +149,7 @@ def _rate(
     """:func:`velocity` at ``state`` with the first ``n`` pairs held (W^-1 = diag(sqb^2, 1))."""
     pb, pm, _, ym = state
     seg = incline.segment(n_active=n, winv_b=sqb * sqb, mu=mu, slip=slip)
-    return velocity(seg, pb, pm, ym)
+    return velocity(seg.held, pb, pm, ym)
 
 
 def _abc(incline, i: int, state: tuple[float, float, float, float]):
@@ -254,7 +254,7 @@ def _modes(incline, mu: float, sqb: float = 1.0) -> tuple[bool, int]:
     v0b, v0m, _, _ = _rate(incline, 1, state, sqb=sqb)
     slip = _fresh_slip()
     seg = incline.segment(winv_b=sqb * sqb, mu=mu, slip=slip)
-    ok = friction_modes(seg, state[0], state[1], state[3], v0b, v0m)
+    ok = friction_modes(seg.held, state[0], state[1], state[3], v0b, v0m)
     return ok, int(slip[0])
 
 
@@ -295,7 +295,7 @@ def test_friction_modes_of_two_contacts_follow_the_fixed_rate(incline) -> None:
     v0b, v0m, _, _ = _rate(incline, 2, state)
     slip = _fresh_slip()
     seg = incline.segment(n_active=2, winv_b=1.0, mu=0.4, slip=slip)
-    assert friction_modes(seg, state[0], state[1], state[3], v0b, v0m)
+    assert friction_modes(seg.held, state[0], state[1], state[3], v0b, v0m)
     for k in range(2):
         _, _, c, gam = _abc(incline, k, state)
         rate = c @ [v0b, v0m] + gam

@@ -31,6 +31,7 @@ from xface_core._engine.records import (
     FREE,
     STEP_MEMO_SLOTS,
     STEP_MEMO_WIDTH,
+    Contacts,
     Segment,
     Step,
 )
@@ -57,7 +58,7 @@ class TwoContacts:
         self.ym = float(p.path.pivot_m[k, 1]) / design.width
 
     def rate(self, pb: float, pm: float, ym: float) -> tuple[float, float]:
-        vb, vm, _, _ = velocity(self.segment(), pb, pm, ym)
+        vb, vm, _, _ = velocity(self.segment().held, pb, pm, ym)
         return vb, vm
 
     def gaps(self, pb: float, pm: float, ym: float) -> tuple[float, float]:
@@ -73,9 +74,10 @@ class TwoContacts:
 
     def segment(self) -> Segment:
         """The segment of the two contacts, frictionless, both parts free."""
+        held = Contacts(self.table, self.act, 2, 0.0, NO_SLIP.copy(), self.x0, 1.0, 1.0, 1.0, 1.0)
         return Segment(
-            self.table, self.act, 2, 0.0, NO_SLIP.copy(), self.x0, -math.inf, 1.0, 1.0, 1.0,
-            1.0, np.zeros((STEP_MEMO_SLOTS + 1, STEP_MEMO_WIDTH)), np.zeros((2, DENSE_WIDTH)),
+            held, -math.inf, np.zeros((STEP_MEMO_SLOTS + 1, STEP_MEMO_WIDTH)),
+            np.zeros((2, DENSE_WIDTH)),
         )  # fmt: skip
 
     def integrated(self, h: float, n: int = 1000) -> tuple[float, float]:
@@ -162,8 +164,8 @@ def test_which_contacts_pin_the_path() -> None:
 def test_one_contact_twice_is_not_solved(held: TwoContacts) -> None:
     # Two copies of one contact: parallel gradients, no unique solution.
     act = np.array([held.act[0], held.act[0], -1, -1], dtype=np.int64)
-    seg = held.segment()._replace(act=act)
-    *_, converged = pinned_solve(seg, held.pb, held.pm, held.ym - 1e-3)
+    contacts = held.segment().held._replace(act=act)
+    *_, converged = pinned_solve(contacts, held.pb, held.pm, held.ym - 1e-3)
     assert not converged
 
 
@@ -176,7 +178,7 @@ def test_a_step_past_where_the_contacts_can_hold_is_not_solved(held: TwoContacts
 
 def test_pinned_solve_returns_the_rate_of_the_contacts(held: TwoContacts) -> None:
     h = 0.002
-    nb, nm, vb, vm, converged = pinned_solve(held.segment(), held.pb, held.pm, held.ym - h)
+    nb, nm, vb, vm, converged = pinned_solve(held.segment().held, held.pb, held.pm, held.ym - h)
     assert converged
     assert (vb, vm) == pytest.approx(held.rate(nb, nm, held.ym - h), rel=1e-12)
     assert math.isfinite(vb + vm)
@@ -185,7 +187,7 @@ def test_pinned_solve_returns_the_rate_of_the_contacts(held: TwoContacts) -> Non
 def _held_step(incline, h: float, mu: float = 0.0) -> tuple[float, float, float, float, bool]:
     """A step down the hand-built incline (conftest): one contact, base held."""
     seg = incline.segment(mu=mu)
-    k1b, k1m, _, _ = velocity(seg, 0.0, incline.phi_m0, incline.y0)
+    k1b, k1m, _, _ = velocity(seg.held, 0.0, incline.phi_m0, incline.y0)
     return solve_or_integrate(seg, incline.step(h), h, k1b, k1m)
 
 
@@ -209,8 +211,10 @@ def test_a_held_step_with_friction_is_integrated(incline) -> None:
 
 def test_held_solve_returns_the_rate_of_the_held_contact(incline) -> None:
     h = 0.01
-    pb, pm, vb, vm, converged = held_solve(incline.segment(), 0.0, incline.phi_m0, incline.y0 - h)
+    pb, pm, vb, vm, converged = held_solve(
+        incline.segment().held, 0.0, incline.phi_m0, incline.y0 - h
+    )
     assert converged
     assert pb == 0.0
-    wb, wm, _, _ = velocity(incline.segment(), pb, pm, incline.y0 - h)
+    wb, wm, _, _ = velocity(incline.segment().held, pb, pm, incline.y0 - h)
     assert (vb, vm) == pytest.approx((wb, wm), rel=1e-12, abs=1e-15)
