@@ -31,46 +31,12 @@ from .records import (
     SLIP_PROBE,
     U_TOL,
     FloatArray,
-    IntArray,
+    Segment,
+    Step,
     Trig,
     njit_inline,
     njit_no_refcount,
 )
-
-
-class Segment(NamedTuple):
-    """What is fixed along one smooth segment of the path (units of D, rad)."""
-
-    pairs: FloatArray
-    act: IntArray
-    """Active contacts (first ``n_active``)."""
-    n_active: int
-    mu: float
-    """Coulomb coefficient at every contact."""
-    slip: IntArray
-    """Friction states of the active contacts (see :class:`~.records.Work`)."""
-    x0: float
-    y_floor: float
-    """Seat height less the seat tolerance: below it a seat is out of reach."""
-    sqrt_winv_b: float
-    sqrt_winv_m: float
-    winv_b: float
-    winv_m: float
-    step_memo: FloatArray
-    """Steps already integrated in this segment (:func:`step_to`; emptied by
-    :func:`clear_step_memo` whenever a segment begins)."""
-    dense: FloatArray
-    """Dense output of the last step integrated and of the trial step
-    (:func:`keep_trial_dense`, :func:`angles_at`)."""
-
-
-class Step(NamedTuple):
-    """A trial step: its start state and its length in descent."""
-
-    phi_b: float
-    phi_m: float
-    y_m: float
-    h: float
 
 
 class Event(NamedTuple):
@@ -193,18 +159,12 @@ def solve_or_integrate(
     solved on the contacts where they pin the path (:func:`~.integrate.pinned_step`, error
     0), else, or where that declines, integrated (:func:`~.integrate.rk_step`). Its dense
     output goes to row 0 of ``seg.dense``."""
-    if pins_path(seg.n_active, seg.winv_b, seg.mu):
-        nb, nm, ok = pinned_step(
-            seg.pairs, seg.act, seg.n_active, step.phi_b, step.phi_m, seg.x0, step.y_m, t,
-            seg.sqrt_winv_b, seg.sqrt_winv_m, seg.mu, seg.slip, k1b, k1m, seg.dense,
-        )  # fmt: skip
+    one = Step(step.phi_b, step.phi_m, step.y_m, t)
+    if pins_path(seg.held.n_active, seg.held.winv_b, seg.held.mu):
+        nb, nm, ok = pinned_step(seg, one, k1b, k1m)
         if ok:
             return nb, nm, 0.0, 0.0, True
-    return rk_step(
-        seg.pairs, seg.act, seg.n_active, step.phi_b, step.phi_m, seg.x0, step.y_m, t,
-        seg.sqrt_winv_b, seg.sqrt_winv_m, seg.winv_b, seg.winv_m, seg.mu, seg.slip,
-        k1b, k1m, seg.dense,
-    )  # fmt: skip
+    return rk_step(seg, one, k1b, k1m)
 
 
 #: Row 0 of the step memo: slots filled and the next slot (columns 0, 1), then one
@@ -243,7 +203,7 @@ def quarter_state(
     memo = seg.step_memo
     col = QUARTER_STATE + QUARTER_WIDTH * (k - 1)
     if not _remembers(memo, col, col + 9, pb, pm, ym):
-        vb, vm, _, _ = segment_velocity(seg, pb, pm, ym)
+        vb, vm, _, _ = velocity(seg.held, pb, pm, ym)
         memo[0, col], memo[0, col + 1], memo[0, col + 2] = pb, pm, ym
         memo[0, col + 3], memo[0, col + 4] = vb, vm
         memo[0, col + 5], memo[0, col + 6] = math.cos(pb), math.sin(pb)
@@ -259,11 +219,11 @@ def quarter_state(
 def _remembered_velocity(
     seg: Segment, col: int, pb: float, pm: float, ym: float
 ) -> tuple[float, float, float, float]:
-    """:func:`segment_velocity` at a state, remembered at ``col`` of the step memo's row 0
+    """:func:`~.motion.velocity` at a state, remembered at ``col`` of the step memo's row 0
     for the last state asked there."""
     memo = seg.step_memo
     if not _remembers(memo, col, col + 7, pb, pm, ym):
-        vb, vm, l1, l2 = segment_velocity(seg, pb, pm, ym)
+        vb, vm, l1, l2 = velocity(seg.held, pb, pm, ym)
         memo[0, col], memo[0, col + 1], memo[0, col + 2] = pb, pm, ym
         memo[0, col + 3], memo[0, col + 4], memo[0, col + 5], memo[0, col + 6] = vb, vm, l1, l2
         memo[0, col + 7] = 1.0
@@ -272,7 +232,7 @@ def _remembered_velocity(
 
 @njit_no_refcount
 def start_velocity(seg: Segment, step: Step) -> tuple[float, float, float, float]:
-    """:func:`segment_velocity` at the step's start, computed once per start: every step
+    """:func:`~.motion.velocity` at the step's start, computed once per start: every step
     from it begins with it, and the event searches and screens of the step ask for it
     again."""
     return _remembered_velocity(seg, START_RATE, step.phi_b, step.phi_m, step.y_m)
@@ -282,21 +242,10 @@ def start_velocity(seg: Segment, step: Step) -> tuple[float, float, float, float
 def end_velocity(
     seg: Segment, pb: float, pm: float, ym: float
 ) -> tuple[float, float, float, float]:
-    """:func:`segment_velocity` at a step's end state, remembered for the last such state:
+    """:func:`~.motion.velocity` at a step's end state, remembered for the last such state:
     the release check, the turn-rate bound and the Hermite predictor of every search over
     the whole step all ask for it."""
     return _remembered_velocity(seg, END_RATE, pb, pm, ym)
-
-
-@njit_no_refcount
-def segment_velocity(
-    seg: Segment, pb: float, pm: float, ym: float
-) -> tuple[float, float, float, float]:
-    """Rate and contact forces at a state of the segment (see :func:`~.motion.velocity`)."""
-    return velocity(
-        seg.pairs, seg.act, seg.n_active, pb, pm, seg.x0, ym, seg.sqrt_winv_b, seg.sqrt_winv_m,
-        seg.mu, seg.slip,
-    )  # fmt: skip
 
 
 @njit_inline
@@ -322,25 +271,22 @@ def event_value(
     """
     if kind == E_CONTACT:
         cb, sb, cm, sm = math.cos(pb), math.sin(pb), math.cos(pm), math.sin(pm)
-        return contact_value(seg.pairs[idx], thr, (cb, sb, cm, sm), seg.x0, ym)
+        return contact_value(seg.held.pairs[idx], thr, (cb, sb, cm, sm), seg.held.x0, ym)
     if kind == E_RELEASE:
-        _, _, l1, l2 = segment_velocity(seg, pb, pm, ym)
+        _, _, l1, l2 = velocity(seg.held, pb, pm, ym)
         lam = l1 if slot == 0 else l2
-        if seg.mu > 0.0 and seg.n_active == 2:
+        if seg.held.mu > 0.0 and seg.held.n_active == 2:
             # The slack with which interval._both_push holds two frictional contacts.
             return lam + PUSH_SLACK * max(abs(l1), abs(l2))
         return lam
     if kind == E_OFF_EDGE:
-        _, u, _, _, _, _, _, _, _ = pair_at(seg.pairs, idx, pb, pm, seg.x0, ym)
+        _, u, _, _, _, _, _, _, _ = pair_at(seg.held.pairs, idx, pb, pm, seg.held.x0, ym)
         # A vertex trapped in a corner sits at u = 0 or 1 up to round-off: not an event.
         return min(u + U_TOL, 1.0 + U_TOL - u)
     if kind == E_BELOW_SEAT:
         return ym - seg.y_floor
     if kind == E_SLIP:
-        return slip_margin(
-            seg.pairs, seg.act, seg.n_active, slot, pb, pm, seg.x0, ym, seg.sqrt_winv_b,
-            seg.sqrt_winv_m, seg.mu, seg.slip,
-        )  # fmt: skip
+        return slip_margin(seg.held, slot, pb, pm, ym)
     # E_SPUN
     return math.pi - max(abs(pb), abs(pm))
 

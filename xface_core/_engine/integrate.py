@@ -9,7 +9,7 @@ import math
 
 from .motion import velocity
 from .pairs import eval_pair
-from .records import TINY, FloatArray, IntArray, njit_no_refcount
+from .records import TINY, Contacts, FloatArray, Segment, Step, njit_no_refcount
 
 # Dormand-Prince 5(4) tableau.
 A21 = 1.0 / 5.0
@@ -45,19 +45,11 @@ E1, E3, E4, E5, E6, E7 = (
 
 
 @njit_no_refcount
-def project(
-    table: FloatArray,
-    act: IntArray,
-    nact: int,
-    pb: float,
-    pm: float,
-    x0: float,
-    ym: float,
-    winv_b: float,
-    winv_m: float,
-) -> tuple[float, float]:
-    """Newton-project (phi_B, phi_M) onto the active constraints g = 0 at fixed y_M,
-    along the least-dissipation metric (keeps the constraint violation at round-off)."""
+def project(held: Contacts, pb: float, pm: float, ym: float) -> tuple[float, float]:
+    """Newton-project (phi_B, phi_M) onto the active constraints ``held`` (g = 0) at fixed
+    y_M, along the least-dissipation metric (keeps the constraint violation at round-off)."""
+    table, act, nact, x0 = held.pairs, held.act, held.n_active, held.x0
+    winv_b, winv_m = held.winv_b, held.winv_m
     for _ in range(3):
         cb0, sb0, cm0, sm0 = math.cos(pb), math.sin(pb), math.cos(pm), math.sin(pm)
         g1, _, ab1, am1, _, _, _, _, _ = eval_pair(table[act[0]], cb0, sb0, cm0, sm0, x0, ym)
@@ -89,108 +81,52 @@ def project(
 
 @njit_no_refcount
 def rk_step(
-    table: FloatArray,
-    act: IntArray,
-    nact: int,
-    pb: float,
-    pm: float,
-    x0: float,
-    ym: float,
-    h: float,
-    sqb: float,
-    sqm: float,
-    winv_b: float,
-    winv_m: float,
-    mu: float,
-    slip: IntArray,
-    k1b: float,
-    k1m: float,
-    dense: FloatArray,
+    seg: Segment, step: Step, k1b: float, k1m: float
 ) -> tuple[float, float, float, float, bool]:
-    """One Dormand-Prince step of length h in descent from the start rate ``(k1b, k1m)``
-    (rad per D: :func:`~.motion.velocity` there, which every step from one start shares,
-    and the event searches take many); returns (pb, pm, err_b, err_m, ok).
+    """One Dormand-Prince step ``step`` (its length h in descent, D) from the start rate
+    ``(k1b, k1m)`` (rad per D: :func:`~.motion.velocity` there, which every step from one
+    start shares, and the event searches take many); returns (pb, pm, err_b, err_m, ok).
 
-    The step's dense output goes to row 0 of ``dense`` (``DENSE_WIDTH`` values, see
+    The step's dense output goes to row 0 of ``seg.dense`` (``DENSE_WIDTH`` values, see
     :func:`dense_angles`); the interpolant ends on the projected end state."""
-    k2b, k2m, _, _ = velocity(
-        table,
-        act,
-        nact,
-        pb + h * A21 * k1b,
-        pm + h * A21 * k1m,
-        x0,
-        ym - h / 5.0,
-        sqb,
-        sqm,
-        mu,
-        slip,
-    )
+    pb, pm, ym, h = step
+    held = seg.held
+    k2b, k2m, _, _ = velocity(held, pb + h * A21 * k1b, pm + h * A21 * k1m, ym - h / 5.0)
     k3b, k3m, _, _ = velocity(
-        table,
-        act,
-        nact,
-        pb + h * (A31 * k1b + A32 * k2b),
-        pm + h * (A31 * k1m + A32 * k2m),
-        x0,
-        ym - h * 0.3,
-        sqb,
-        sqm,
-        mu,
-        slip,
+        held, pb + h * (A31 * k1b + A32 * k2b), pm + h * (A31 * k1m + A32 * k2m), ym - h * 0.3
     )
     k4b, k4m, _, _ = velocity(
-        table,
-        act,
-        nact,
+        held,
         pb + h * (A41 * k1b + A42 * k2b + A43 * k3b),
         pm + h * (A41 * k1m + A42 * k2m + A43 * k3m),
-        x0,
         ym - h * 0.8,
-        sqb,
-        sqm,
-        mu,
-        slip,
     )
     k5b, k5m, _, _ = velocity(
-        table,
-        act,
-        nact,
+        held,
         pb + h * (A51 * k1b + A52 * k2b + A53 * k3b + A54 * k4b),
         pm + h * (A51 * k1m + A52 * k2m + A53 * k3m + A54 * k4m),
-        x0,
         ym - h * (8.0 / 9.0),
-        sqb,
-        sqm,
-        mu,
-        slip,
     )
     k6b, k6m, _, _ = velocity(
-        table,
-        act,
-        nact,
+        held,
         pb + h * (A61 * k1b + A62 * k2b + A63 * k3b + A64 * k4b + A65 * k5b),
         pm + h * (A61 * k1m + A62 * k2m + A63 * k3m + A64 * k4m + A65 * k5m),
-        x0,
         ym - h,
-        sqb,
-        sqm,
-        mu,
-        slip,
     )
     nb = pb + h * (B1 * k1b + B3 * k3b + B4 * k4b + B5 * k5b + B6 * k6b)
     nm = pm + h * (B1 * k1m + B3 * k3m + B4 * k4m + B5 * k5m + B6 * k6m)
-    k7b, k7m, _, _ = velocity(table, act, nact, nb, nm, x0, ym - h, sqb, sqm, mu, slip)
+    k7b, k7m, _, _ = velocity(held, nb, nm, ym - h)
     eb = h * (E1 * k1b + E3 * k3b + E4 * k4b + E5 * k5b + E6 * k6b + E7 * k7b)
     em = h * (E1 * k1m + E3 * k3m + E4 * k4m + E5 * k5m + E6 * k6m + E7 * k7m)
     ok = math.isfinite(eb) and math.isfinite(em) and math.isfinite(nb) and math.isfinite(nm)
     if ok:
         # The projection's correction is part of the step's error: a large one means the
         # step left the constraint manifold (e.g. near a turning point of the contact path).
-        qb, qm = project(table, act, nact, nb, nm, x0, ym - h, winv_b, winv_m)
+        qb, qm = project(held, nb, nm, ym - h)
         eb = max(abs(eb), abs(qb - nb))
         em = max(abs(em), abs(qm - nm))
         nb, nm = qb, qm
+    dense = seg.dense
     dense[0, 0], dense[0, 1], dense[0, 2], dense[0, 3] = pb, pm, ym, h
     dense[0, 4] = 1.0 if ok else 0.0
     dense[0, 13], dense[0, 14] = abs(eb), abs(em)
@@ -220,13 +156,14 @@ PINNED_GAP = 1e-14
 
 @njit_no_refcount
 def pinned_solve(
-    table: FloatArray, act: IntArray, pb: float, pm: float, x0: float, ym: float
+    held: Contacts, pb: float, pm: float, ym: float
 ) -> tuple[float, float, float, float, bool]:
-    """Newton's method on both active gaps at the height ``ym`` (D) from ``(pb, pm)``:
+    """Newton's method on both active gaps of ``held`` at the height ``ym`` (D) from ``(pb, pm)``:
     ``(phi_b, phi_m, v_b, v_m, converged)`` with the rate there (rad per D: the gaps held,
     ``J v = beta``, the same for any metric or friction with two contacts); converged only
     if both gaps reached ``PINNED_GAP`` with the gradients at least ``PINNED_CONDITION``
     from parallel all the way."""
+    table, act, x0 = held.pairs, held.act, held.x0
     nan = math.nan
     for _ in range(PINNED_ITERATIONS):
         cb, sb, cm, sm = math.cos(pb), math.sin(pb), math.cos(pm), math.sin(pm)
@@ -245,13 +182,14 @@ def pinned_solve(
 
 @njit_no_refcount
 def held_solve(
-    table: FloatArray, act: IntArray, pb: float, pm: float, x0: float, ym: float
+    held: Contacts, pb: float, pm: float, ym: float
 ) -> tuple[float, float, float, float, bool]:
     """:func:`pinned_solve` for one contact with the base held: Newton's method on the gap
     in phi_M alone at the height ``ym`` (D); the rate there is ``(0, beta / a_M)``.
     Converged only if the gap reached ``PINNED_GAP`` with ``|a_M|`` at least
     ``PINNED_CONDITION`` of ``|(a_M, beta)|`` all the way (a rate below 1/PINNED_CONDITION
     rad per D: no fold near)."""
+    table, act, x0 = held.pairs, held.act, held.x0
     nan = math.nan
     cb, sb = math.cos(pb), math.sin(pb)
     for _ in range(PINNED_ITERATIONS):
@@ -266,13 +204,10 @@ def held_solve(
 
 
 @njit_no_refcount
-def pinned_step(
-    table: FloatArray, act: IntArray, nact: int, pb: float, pm: float, x0: float, ym: float,
-    h: float, sqb: float, sqm: float, mu: float, slip: IntArray, k1b: float, k1m: float,
-    dense: FloatArray,
-) -> tuple[float, float, bool]:  # fmt: skip
-    """A step of length ``h`` (D) along a path pinned by its active contacts (two, or one
-    with the base held and no friction), solved instead of integrated: Heun's predictor
+def pinned_step(seg: Segment, step: Step, k1b: float, k1m: float) -> tuple[float, float, bool]:
+    """The step ``step`` (its length h in descent, D) along a path pinned by the segment's
+    active contacts (two, or one with the base held and no friction), solved instead of
+    integrated: Heun's predictor
     from the start rate ``(k1b, k1m)``, then :func:`pinned_solve` (:func:`held_solve`) at
     the step's end height. ``(phi_b, phi_m, ok)``; its error is the solve's round-off, so
     the caller counts it as zero. Not ``ok`` (the caller integrates instead)
@@ -284,25 +219,27 @@ def pinned_step(
     The dense output is the cubic Hermite interpolant through both ends and their rates;
     its error estimate (columns 13, 14) is the predictor's distance from the solution,
     O(h^3) against the interpolant's O(h^4)."""
+    held, dense = seg.held, seg.dense
+    pb, pm, ym, h = step
     # The rate at the Euler point, for Heun's predictor.
     euler_b, euler_m = pb + h * k1b, pm + h * k1m
-    vb, vm, _, _ = velocity(table, act, nact, euler_b, euler_m, x0, ym - h, sqb, sqm, mu, slip)
+    vb, vm, _, _ = velocity(held, euler_b, euler_m, ym - h)
     if not math.isfinite(vb + vm):
         return pb, pm, False
     qb = pb + 0.5 * h * (k1b + vb)
     qm = pm + 0.5 * h * (k1m + vm)
-    if nact == 2:
-        nb, nm, k7b, k7m, converged = pinned_solve(table, act, qb, qm, x0, ym - h)
+    if held.n_active == 2:
+        nb, nm, k7b, k7m, converged = pinned_solve(held, qb, qm, ym - h)
     else:
-        nb, nm, k7b, k7m, converged = held_solve(table, act, qb, qm, x0, ym - h)
+        nb, nm, k7b, k7m, converged = held_solve(held, qb, qm, ym - h)
     if not converged:
         return pb, pm, False
     moved = max(abs(nb - qb), abs(nm - qm))
     if not moved <= 0.25 * max(abs(qb - pb), abs(qm - pm)) + 1e-12:
         return pb, pm, False
-    if mu > 0.0:
+    if held.mu > 0.0:
         # The rate is the solve's; velocity also says where friction cannot share the load.
-        k7b, k7m, _, _ = velocity(table, act, nact, nb, nm, x0, ym - h, sqb, sqm, mu, slip)
+        k7b, k7m, _, _ = velocity(held, nb, nm, ym - h)
     if not (math.isfinite(k7b + k7m) and k7b * k1b + k7m * k1m > 0.0):
         return pb, pm, False
     dense[0, 0], dense[0, 1], dense[0, 2], dense[0, 3] = pb, pm, ym, h

@@ -35,6 +35,7 @@ from .records import (
     Model,
     Options,
     Work,
+    held_contacts,
     njit_no_refcount,
 )
 from .scan import asleep
@@ -126,19 +127,11 @@ def _with_friction(
     Returns ``(consistent, n_active, v_b, v_m)``.
     """
     pb, pm, x0, ym = run.phi_b, run.phi_m, run.x0, run.y_m
-    sqb, sqm = opts.sqrt_winv_b, opts.sqrt_winv_m
-    table, act, ev, cand, mu, slip = (
-        model.pairs,
-        work.act,
-        work.ev,
-        work.cand,
-        opts.friction,
-        work.slip,
-    )
-    rays = work.rays
+    table, act, ev, cand, rays = model.pairs, work.act, work.ev, work.cand, work.rays
+    two = held_contacts(model, opts, work, 2, opts.friction, x0)
     if n_new == 2:
-        friction_modes(table, act, 2, pb, pm, x0, ym, sqb, sqm, mu, slip, v0b, v0m)
-        vb, vm, l1, l2 = velocity(table, act, 2, pb, pm, x0, ym, sqb, sqm, mu, slip)
+        friction_modes(two, pb, pm, ym, v0b, v0m)
+        vb, vm, l1, l2 = velocity(two, pb, pm, ym)
         if math.isfinite(vb + vm) and _both_push(l1, l2):
             return True, 2, v0b, v0m
         # One contact pulls under friction: try each alone.
@@ -163,8 +156,8 @@ def _with_friction(
         if j == act[0]:
             continue
         act[1] = j
-        friction_modes(table, act, 2, pb, pm, x0, ym, sqb, sqm, mu, slip, fb, fm)
-        vb, vm, l1, l2 = velocity(table, act, 2, pb, pm, x0, ym, sqb, sqm, mu, slip)
+        friction_modes(two, pb, pm, ym, fb, fm)
+        vb, vm, l1, l2 = velocity(two, pb, pm, ym)
         if not (math.isfinite(vb + vm) and _both_push(l1, l2)):
             continue
         if rate_keeps_contacts(table, ev, cand, nc, act, 2, pb, pm, x0, ym, vb, vm, rays):
@@ -179,12 +172,10 @@ def _one_contact_rate(
 ) -> tuple[bool, float, float]:
     """The slip state of the one contact ``work.act[0]`` (``work.slip``) and its frictional
     rate ``(ok, v_b, v_m)``; ok is False when no slip state is consistent."""
-    pb, pm, x0, ym = run.phi_b, run.phi_m, run.x0, run.y_m
-    sqb, sqm = opts.sqrt_winv_b, opts.sqrt_winv_m
-    table, act, slip = model.pairs, work.act, work.slip
-    if not friction_modes(table, act, 1, pb, pm, x0, ym, sqb, sqm, opts.friction, slip, v0b, v0m):
+    one = held_contacts(model, opts, work, 1, opts.friction, run.x0)
+    if not friction_modes(one, run.phi_b, run.phi_m, run.y_m, v0b, v0m):
         return False, 0.0, 0.0
-    fb, fm, _, _ = velocity(table, act, 1, pb, pm, x0, ym, sqb, sqm, opts.friction, slip)
+    fb, fm, _, _ = velocity(one, run.phi_b, run.phi_m, run.y_m)
     return True, fb, fm
 
 
@@ -229,10 +220,8 @@ def _keeps_excluded(model: Model, opts: Options, run: Run, work: Work, n_new: in
     pb, pm, x0, ym = run.phi_b, run.phi_m, run.x0, run.y_m
     vb, vm = 0.0, 0.0
     if n_new > 0:
-        vb, vm, _, _ = velocity(
-            model.pairs, work.act, n_new, pb, pm, x0, ym, opts.sqrt_winv_b, opts.sqrt_winv_m,
-            opts.friction, work.slip,
-        )  # fmt: skip
+        held = held_contacts(model, opts, work, n_new, opts.friction, x0)
+        vb, vm, _, _ = velocity(held, pb, pm, ym)
     return rate_keeps_contacts(
         model.pairs, work.ev, work.exclude, run.n_excluded, work.act, n_new, pb, pm, x0, ym,
         vb, vm, work.rays,

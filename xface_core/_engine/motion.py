@@ -24,8 +24,10 @@ from .records import (
     TINY,
     U_CORNER,
     U_TOL,
+    Contacts,
     FloatArray,
     IntArray,
+    frictionless,
     njit_no_refcount,
 )
 
@@ -142,28 +144,19 @@ def tangent(
 
 
 @njit_no_refcount
-def velocity(
-    table: FloatArray,
-    act: IntArray,
-    nact: int,
-    pb: float,
-    pm: float,
-    x0: float,
-    ym: float,
-    sqb: float,
-    sqm: float,
-    mu: float,
-    slip: IntArray,
-) -> tuple[float, float, float, float]:
-    """Rate dq/ds with the active set held fixed; returns (v_b, v_m, lambda_0, x) where x is
-    lambda_1 for two contacts and, for one stuck contact, its tangential force tau.
+def velocity(held: Contacts, pb: float, pm: float, ym: float) -> tuple[float, float, float, float]:
+    """Rate dq/ds (rad per D) at the state ``(pb, pm, ym)`` with the active set ``held``
+    fixed; returns (v_b, v_m, lambda_0, x) where x is lambda_1 for two contacts and,
+    for one stuck contact, its tangential force tau.
 
     Frictionless, the rate is the least-dissipation one.  With Coulomb friction mu =
-    ``mu``, a sliding contact pushes along ``a - mu s c`` (s: the slip's sign, ``slip[k]``),
-    a stuck one (``slip[0] == STICK``) adds the slip constraint ``c . v = -gamma``.  Non-finite
-    rates signal a singular configuration (a contact normal through both pivots) or a
-    friction lock.
+    ``held.mu``, a sliding contact pushes along ``a - mu s c`` (s: the slip's sign,
+    ``held.slip[k]``), a stuck one (``slip[0] == STICK``) adds the slip constraint
+    ``c . v = -gamma``.  Non-finite rates signal a singular configuration (a contact normal
+    through both pivots) or a friction lock.
     """
+    table, act, nact = held.pairs, held.act, held.n_active
+    mu, slip, x0, sqb, sqm = held.mu, held.slip, held.x0, held.sqrt_winv_b, held.sqrt_winv_m
     cb0, sb0, cm0, sm0 = math.cos(pb), math.sin(pb), math.cos(pm), math.sin(pm)
     _, _, ab1, am1, b1, _, _, _, _ = eval_pair(table[act[0]], cb0, sb0, cm0, sm0, x0, ym)
     ab1 *= sqb
@@ -221,27 +214,14 @@ def velocity(
 
 
 @njit_no_refcount
-def slip_margin(
-    table: FloatArray,
-    act: IntArray,
-    nact: int,
-    k: int,
-    pb: float,
-    pm: float,
-    x0: float,
-    ym: float,
-    sqb: float,
-    sqm: float,
-    mu: float,
-    slip: IntArray,
-) -> float:
+def slip_margin(held: Contacts, k: int, pb: float, pm: float, ym: float) -> float:
     """Positive while contact k keeps its friction state: a sliding contact keeps its slip
     direction, a stuck one keeps its tangential force inside the cone |tau| <= mu lambda."""
-    vb, vm, lam, x = velocity(table, act, nact, pb, pm, x0, ym, sqb, sqm, mu, slip)
-    if slip[k] == STICK:
-        return float(mu * lam * (1.0 + STICK_SLACK) - abs(x))
-    cb, cm, gam = tangent(table, act[k], pb, pm, x0, ym)
-    return float(slip[k] * (cb * vb + cm * vm + gam))
+    vb, vm, lam, x = velocity(held, pb, pm, ym)
+    if held.slip[k] == STICK:
+        return float(held.mu * lam * (1.0 + STICK_SLACK) - abs(x))
+    cb, cm, gam = tangent(held.pairs, held.act[k], pb, pm, held.x0, ym)
+    return float(held.slip[k] * (cb * vb + cm * vm + gam))
 
 
 @njit_no_refcount
@@ -424,22 +404,10 @@ def choose_motion(
 
 
 @njit_no_refcount
-def friction_modes(
-    table: FloatArray,
-    act: IntArray,
-    nact: int,
-    pb: float,
-    pm: float,
-    x0: float,
-    ym: float,
-    sqb: float,
-    sqm: float,
-    mu: float,
-    slip: IntArray,
-    v0b: float,
-    v0m: float,
-) -> bool:
-    """Choose each active contact's friction state (``slip[k]``); False for a friction lock.
+def friction_modes(held: Contacts, pb: float, pm: float, ym: float, v0b: float, v0m: float) -> bool:
+    """Choose each active contact's friction state (``held.slip[k]``) at the state
+    ``(pb, pm, ym)`` where the frictionless rate is ``(v0b, v0m)`` (rad per D); False for a
+    friction lock.
 
     The active set is the frictionless one (least dissipation); friction then sets the motion
     within it. One contact: slide in the direction the frictionless motion slips, else the
@@ -448,6 +416,8 @@ def friction_modes(
     consistent states; this order picks one deterministically. Two contacts fix the rate, so
     each slips the way that rate makes it slip.
     """
+    table, act, nact = held.pairs, held.act, held.n_active
+    mu, slip, x0 = held.mu, held.slip, held.x0
     slip[0] = FREE
     slip[1] = FREE
     dd = SLIP_PROBE
@@ -455,7 +425,7 @@ def friction_modes(
         # Judged a short move ahead along the (fixed) rate: at a slip reversal the rate at
         # the point itself is zero to round-off, and the old sign would fire the event again.
         qb, qm, yy = pb + dd * v0b, pm + dd * v0m, ym - dd
-        wb, wm, _, _ = velocity(table, act, 2, qb, qm, x0, yy, sqb, sqm, 0.0, slip)
+        wb, wm, _, _ = velocity(frictionless(held), qb, qm, yy)
         if not (math.isfinite(wb) and math.isfinite(wm)):
             qb, qm, yy, wb, wm = pb, pm, ym, v0b, v0m
         for k in range(2):
@@ -471,13 +441,13 @@ def friction_modes(
     first = SLIDE_POSITIVE if slip0 >= 0.0 else SLIDE_NEGATIVE
     for mode in (first, -first, STICK):
         slip[0] = mode
-        vb, vm, lam, _ = velocity(table, act, nact, pb, pm, x0, ym, sqb, sqm, mu, slip)
+        vb, vm, lam, _ = velocity(held, pb, pm, ym)
         if not (math.isfinite(vb) and math.isfinite(vm) and lam >= 0.0):
             continue
         # Judge the state a short move ahead: at a stick-slip transition the state at the
         # point itself is marginal, and the wrong choice would fire its event at once.
         qb, qm, yy = pb + dd * vb, pm + dd * vm, ym - dd
-        wb, wm, lam2, x2 = velocity(table, act, nact, qb, qm, x0, yy, sqb, sqm, mu, slip)
+        wb, wm, lam2, x2 = velocity(held, qb, qm, yy)
         if not (math.isfinite(wb) and math.isfinite(wm) and lam2 >= 0.0):
             continue
         if mode == STICK:

@@ -365,6 +365,77 @@ class Work(NamedTuple):
     :func:`~.segment.start_segment`)."""
 
 
+class Contacts(NamedTuple):
+    """The active contacts and the metric the parts move in (units of D, rad): all that the
+    rate (:func:`~.motion.velocity`), the projection and the pinned solves need. A kernel
+    call passes every field of its arguments, and numba inlines none of these: the rate,
+    asked for seven times a step and more in every event search, takes this, not the whole
+    :class:`Segment` (whose step memo and dense output it does not read)."""
+
+    pairs: FloatArray
+    act: IntArray
+    """Active contacts (first ``n_active``)."""
+    n_active: int
+    mu: float
+    """Coulomb coefficient at every contact."""
+    slip: IntArray
+    """Friction states of the active contacts (see :class:`Work`)."""
+    x0: float
+    """The moving part's pivot's x (D)."""
+    sqrt_winv_b: float
+    sqrt_winv_m: float
+    winv_b: float
+    winv_m: float
+    """The least-dissipation metric W^-1 (and its square roots) of the base and the moving
+    part (see :class:`Options`)."""
+
+
+class Segment(NamedTuple):
+    """What is fixed along one smooth segment of the path: the step context every stage of
+    the segment takes whole (Box2D's ``b2StepContext``)."""
+
+    held: Contacts
+    y_floor: float
+    """Seat height less the seat tolerance (D): below it a seat is out of reach."""
+    step_memo: FloatArray
+    """Steps already integrated in this segment (:func:`~.events.step_to`; emptied by
+    :func:`~.events.clear_step_memo` whenever a segment begins)."""
+    dense: FloatArray
+    """Dense output of the last step integrated and of the trial step
+    (:func:`~.events.keep_trial_dense`, :func:`~.events.angles_at`)."""
+
+
+class Step(NamedTuple):
+    """A trial step: its start state and its length in descent."""
+
+    phi_b: float
+    phi_m: float
+    y_m: float
+    h: float
+
+
+@njit(inline="always")
+def held_contacts(
+    model: Model, opts: Options, work: Work, n_active: int, mu: float, x0: float
+) -> Contacts:
+    """The first ``n_active`` contacts of ``work.act`` held with Coulomb coefficient ``mu``,
+    the moving pivot at ``x0`` (D). Inlined, so the tuple of arrays is built under the
+    caller's reference counting (none in the engine)."""
+    return Contacts(
+        model.pairs, work.act, n_active, mu, work.slip, x0, opts.sqrt_winv_b, opts.sqrt_winv_m,
+        opts.winv_b, opts.winv_m,
+    )  # fmt: skip
+
+
+@njit(inline="always")
+def frictionless(held: Contacts) -> Contacts:
+    """``held`` without friction (``mu`` 0), for the rate that friction turns."""
+    return Contacts(
+        held.pairs, held.act, held.n_active, 0.0, held.slip, held.x0, held.sqrt_winv_b,
+        held.sqrt_winv_m, held.winv_b, held.winv_m,
+    )  # fmt: skip
+
+
 @njit_cached
 def new_work(model: Model, opts: Options) -> Work:
     """Fresh scratch arrays for one run (or a batch of runs, :func:`reset_work` between

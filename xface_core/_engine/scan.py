@@ -13,8 +13,6 @@ from .events import (
     NO_EVENT,
     QUARTER_SLOTS,
     Event,
-    Segment,
-    Step,
     angles_at,
     contact_value,
     earlier,
@@ -22,11 +20,10 @@ from .events import (
     has_dense,
     locate,
     quarter_state,
-    segment_velocity,
     start_velocity,
     step_to,
 )
-from .motion import slip_margin
+from .motion import slip_margin, velocity
 from .pairs import (
     COL_EDGE_LENGTH,
     COL_REACH,
@@ -56,6 +53,8 @@ from .records import (
     U_TOL,
     FloatArray,
     Options,
+    Segment,
+    Step,
     Trig,
     Work,
     njit_inline,
@@ -85,21 +84,22 @@ def _active_events(
     changes sign through a pole), or its vertex leaves the edge."""
     y1 = step.y_m - step.h
     tol = opts.event_tol
+    held = seg.held
     _, _, l1, l2 = end_velocity(seg, nb, nm, y1)
-    for k in range(seg.n_active):
-        pair = seg.act[k]
+    for k in range(held.n_active):
+        pair = held.act[k]
         lam = l1 if k == 0 else l2
         if lam < 0.0:
             lo, hk = locate(seg, step, tol, E_RELEASE, pair, k, 0.0)
             kind = E_RELEASE
             pbk, pmk, _, _, _ = step_to(seg, step, lo)
-            wb, wm, m1, m2 = segment_velocity(seg, pbk, pmk, step.y_m - lo)
+            wb, wm, m1, m2 = velocity(held, pbk, pmk, step.y_m - lo)
             sb, sm, s1, s2 = start_velocity(seg, step)
             pole = abs(m1 if k == 0 else m2) > 1e-6 * max(1.0, abs(s1 if k == 0 else s2))
             # With friction the forces also have a pole where the friction-turned normals
             # line up (the contacts wedge) while the rate stays finite: the path goes on,
             # only this set of slipping contacts cannot carry it; choose again (a release).
-            wedge = seg.mu > 0.0 and max(abs(wb), abs(wm)) < 1e3 * max(1.0, abs(sb), abs(sm))
+            wedge = held.mu > 0.0 and max(abs(wb), abs(wm)) < 1e3 * max(1.0, abs(sb), abs(sm))
             if pole and not wedge:
                 # lambda changed sign through a pole, not through zero: the contact path
                 # turns back here and cannot descend further.
@@ -107,7 +107,7 @@ def _active_events(
                 hk = lo
             best = earlier(Event(kind, pair, hk), best)
         ecb, esb, ecm, esm = end
-        _, u, _, _, _, _, _, _, _ = eval_pair(seg.pairs[pair], ecb, esb, ecm, esm, seg.x0, y1)
+        _, u, _, _, _, _, _, _, _ = eval_pair(held.pairs[pair], ecb, esb, ecm, esm, held.x0, y1)
         if u < -U_TOL or u > 1.0 + U_TOL:
             _, hk = locate(seg, step, tol, E_OFF_EDGE, pair, k, 0.0)
             best = earlier(Event(E_OFF_EDGE, pair, hk), best)
@@ -120,17 +120,14 @@ def _slip_events(
 ) -> Event:
     """A sliding contact stops or reverses, or a stuck one starts to slide."""
     y1 = step.y_m - step.h
-    for k in range(seg.n_active):
-        if seg.slip[k] == FREE:
+    for k in range(seg.held.n_active):
+        if seg.held.slip[k] == FREE:
             continue
-        margin = slip_margin(
-            seg.pairs, seg.act, seg.n_active, k, nb, nm, seg.x0, y1, seg.sqrt_winv_b,
-            seg.sqrt_winv_m, seg.mu, seg.slip,
-        )  # fmt: skip
+        margin = slip_margin(seg.held, k, nb, nm, y1)
         if margin < 0.0:
-            _, hk = locate(seg, step, opts.event_tol, E_SLIP, seg.act[k], k, 0.0)
+            _, hk = locate(seg, step, opts.event_tol, E_SLIP, seg.held.act[k], k, 0.0)
             kind = E_SLIP
-            if hk == 0.0 and seg.n_active == 2:
+            if hk == 0.0 and seg.held.n_active == 2:
                 # Two contacts fix the rate, and their slip states were read from it a
                 # short move ahead (motion.friction_modes); contradicted already at the
                 # start, the rate turns over within that move: a fold of the contact path
@@ -138,7 +135,7 @@ def _slip_events(
                 # the same and fire again, forever (V H/D 0.439, r_p 0, mu 2.44 at
                 # x0 = -0.208 D, theta0 = 1.414: the event budget). The path turns here.
                 kind = E_TURN
-            best = earlier(Event(kind, seg.act[k], hk), best)
+            best = earlier(Event(kind, seg.held.act[k], hk), best)
     return best
 
 
@@ -159,7 +156,7 @@ def _contact_events(
     n_near = 0
     # The turn between the ends, as _contacts_inside_step bounds a vertex's travel with it.
     turn_ends = abs(nb - step.phi_b) + abs(nm - step.phi_m)
-    pairs, act, n_act, x0 = seg.pairs, seg.act, seg.n_active, seg.x0
+    pairs, act, n_act, x0 = seg.held.pairs, seg.held.act, seg.held.n_active, seg.held.x0
     tol = opts.event_tol
     cb1, sb1, cm1, sm1 = end
     # The states at the earliest event so far and two event widths before it, computed once
@@ -265,10 +262,10 @@ def _is_contact(seg: Segment, step: Step, i: int, hk: float, thr: float) -> bool
     corner), and within the span, past a convex end at the corner, or just past a reflex end
     (a tip reaching the bottom of a notch)."""
     pbk, pmk, _, _, _ = step_to(seg, step, hk)
-    gk, uk, _, _, _, _, _, _, _ = pair_at(seg.pairs, i, pbk, pmk, seg.x0, step.y_m - hk)
+    gk, uk, _, _, _, _, _, _, _ = pair_at(seg.held.pairs, i, pbk, pmk, seg.held.x0, step.y_m - hk)
     if gk < thr - CORNER_REACH:
         return False
-    return not past_reflex_end(seg.pairs[i], uk)
+    return not past_reflex_end(seg.held.pairs[i], uk)
 
 
 @njit_no_refcount
@@ -307,7 +304,7 @@ def _gap_bounds(
     ``start``, ``end``: cos and sin of phi_B and phi_M at the step's ends (the callers have
     them).
     """
-    row, x0 = seg.pairs[i], seg.x0
+    row, x0 = seg.held.pairs[i], seg.held.x0
     dt = step.h / pieces
     # sqrt of the sum of squares, not hypot: a bound, and glibc's hypot (exact to round-off
     # without overflow, neither needed at a few D) was 5 % of the kernel's samples.
@@ -332,7 +329,7 @@ def _gap_bounds(
                 cb, sb, cm, sm, vb, vm = quarter_state(seg, k, pb, pm, y)
             else:
                 cb, sb, cm, sm = math.cos(pb), math.sin(pb), math.cos(pm), math.sin(pm)
-                vb, vm, _, _ = segment_velocity(seg, pb, pm, y)
+                vb, vm, _, _ = velocity(seg.held, pb, pm, y)
         elif pieces > 1:
             if k == 0:
                 vb, vm, _, _ = start_velocity(seg, step)
@@ -431,7 +428,7 @@ def _contacts_before(
     state no pair that started outside may be inside; one that is gets located before it.
     """
     thr, g_prev = work.thr, work.g_prev
-    pairs, act, n_act, x0 = seg.pairs, seg.act, seg.n_active, seg.x0
+    pairs, act, n_act, x0 = seg.held.pairs, seg.held.act, seg.held.n_active, seg.held.x0
     cb0, sb0, cm0, sm0 = start
     for _ in range(4):
         if best.kind == E_NONE or best.h <= 0.0:
@@ -584,7 +581,7 @@ def _contacts_inside_step(
         work.u_next,
         work.samples,
     )
-    pairs, x0 = seg.pairs, seg.x0
+    pairs, x0 = seg.held.pairs, seg.held.x0
     turn = abs(nb - step.phi_b) + abs(nm - step.phi_m)
     cb0, sb0, cm0, sm0 = start
     y1 = step.y_m - step.h
@@ -688,7 +685,8 @@ def _crossed_at_event(opts: Options, seg: Segment, step: Step, work: Work, nb: f
     from :func:`_contact_events`)."""
     eb, em, _, _, _ = step_to(seg, step, best.h)
     ey = step.y_m - best.h
-    pairs, x0, u_prev, u_next, rays = seg.pairs, seg.x0, work.u_prev, work.u_next, work.rays
+    pairs, x0, u_prev, u_next = seg.held.pairs, seg.held.x0, work.u_prev, work.u_next
+    rays = work.rays
     now = (math.cos(eb), math.sin(eb), math.cos(em), math.sin(em), ey)
     at_start = (start[0], start[1], start[2], start[3], step.y_m)
     turn = abs(nb - step.phi_b) + abs(nm - step.phi_m)

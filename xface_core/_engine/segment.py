@@ -14,8 +14,6 @@ from .ends import Run, end_at_rest, end_run, record
 from .events import (
     NO_EVENT,
     Event,
-    Segment,
-    Step,
     clear_step_memo,
     keep_trial_dense,
     step_to,
@@ -49,7 +47,10 @@ from .records import (
     IntArray,
     Model,
     Options,
+    Segment,
+    Step,
     Work,
+    held_contacts,
     njit_cached,
     njit_no_refcount,
 )
@@ -59,6 +60,15 @@ from .scan import asleep, find_event, reach_budget, wake
 @njit_no_refcount
 def _phase(run: Run) -> int:
     return P_SLIDE if abs(run.phi_b - run.phi_m) <= ALIGN_TOL else P_ALIGN
+
+
+@njit(inline="always")
+def _segment(model: Model, opts: Options, run: Run, work: Work) -> Segment:
+    """What stays fixed along the segment just started. Inlined, so the tuple of arrays is
+    built under the caller's reference counting (none in the engine, numba's for a caller
+    in Python)."""
+    held = held_contacts(model, opts, work, run.n_active, opts.friction, run.x0)
+    return Segment(held, run.y_floor, work.step_memo, work.dense)
 
 
 @njit_no_refcount
@@ -72,9 +82,8 @@ def start_segment(
     only once it closes past its current gap (less the touching tolerance).
     """
     act, n = work.act, run.n_active
-    qb, qm = project(
-        model.pairs, act, n, run.phi_b, run.phi_m, run.x0, run.y_m, opts.winv_b, opts.winv_m
-    )
+    held = held_contacts(model, opts, work, n, opts.friction, run.x0)
+    qb, qm = project(held, run.phi_b, run.phi_m, run.y_m)
     turn = 0.0  # how far the projection turned the parts
     if max(abs(qb - run.phi_b), abs(qm - run.phi_m)) < 1e-6:
         turn = abs(qb - run.phi_b) + abs(qm - run.phi_m)
@@ -106,18 +115,6 @@ def start_segment(
     record(run, path, path_pairs, _phase(run), act, n)
     clear_step_memo(work.step_memo)
     work.dense[1, 4] = 0.0  # no trial step's dense output yet
-
-
-@njit(inline="always")
-def _segment(model: Model, opts: Options, run: Run, work: Work) -> Segment:
-    """What stays fixed along the segment just started. Inlined, so the tuple of arrays is
-    built under the caller's reference counting (none in the engine, numba's for a caller
-    in Python)."""
-    return Segment(
-        model.pairs, work.act, run.n_active, opts.friction, work.slip, run.x0, run.y_floor,
-        opts.sqrt_winv_b, opts.sqrt_winv_m, opts.winv_b, opts.winv_m, work.step_memo,
-        work.dense,
-    )  # fmt: skip
 
 
 @njit_cached  # returns arrays (in the Segment) to Python: needs NRT
@@ -247,10 +244,7 @@ def advance_to_event(
         y_ev = step.y_m - ev.h
         tb, tm = run.phi_b, run.phi_m
         for _ in range(20):
-            tb, tm = project(
-                model.pairs, work.act, run.n_active, tb, tm, run.x0, y_ev, opts.winv_b,
-                opts.winv_m,
-            )  # fmt: skip
+            tb, tm = project(seg.held, tb, tm, y_ev)
         # The turn lies within this step, which turns the parts by at most MAX_TURN: a
         # projection further away converged to another solution of the contacts (seen: 0.49
         # rad away, the parts 1.5 D^2 inside each other at a pivot on the seat line).

@@ -16,9 +16,16 @@ import numpy as np
 import pytest
 
 import xface_core as xf
-from xface_core._engine.events import Segment, Step
 from xface_core._engine.pairs import fill_extents, pair_at
-from xface_core._engine.records import DENSE_WIDTH, FREE, STEP_MEMO_SLOTS, STEP_MEMO_WIDTH
+from xface_core._engine.records import (
+    DENSE_WIDTH,
+    FREE,
+    STEP_MEMO_SLOTS,
+    STEP_MEMO_WIDTH,
+    Contacts,
+    Segment,
+    Step,
+)
 from xface_core.contact import pair_table
 
 #: Columns of the engine's pair table; hand-built rows fill the first ten (kind, vertex, edge,
@@ -68,14 +75,18 @@ class Incline:
         )
 
     def segment(
-        self, *, n_active: int = 1, y_floor: float = -math.inf, winv_b: float = 0.0
-    ) -> Segment:
-        """The smooth segment with pair 0 active (and pair 1 too for ``n_active=2``)."""
+        self, *, n_active: int = 1, y_floor: float = -math.inf, winv_b: float = 0.0,
+        mu: float = 0.0, slip: np.ndarray | None = None,
+    ) -> Segment:  # fmt: skip
+        """The smooth segment with pair 0 active (and pair 1 too for ``n_active=2``), with
+        Coulomb coefficient ``mu`` and friction states ``slip`` (default: both free)."""
         act = np.array([0, 1, -1, -1][:n_active] + [-1] * (4 - n_active), dtype=np.int64)
-        slip = np.full(2, FREE, dtype=np.int64)
+        if slip is None:
+            slip = np.full(2, FREE, dtype=np.int64)
+        held = Contacts(self.table, act, n_active, mu, slip, self.x0, math.sqrt(winv_b), 1.0,
+                        winv_b, 1.0)  # fmt: skip
         return Segment(
-            self.table, act, n_active, 0.0, slip, self.x0, y_floor,
-            math.sqrt(winv_b), 1.0, winv_b, 1.0, np.zeros((STEP_MEMO_SLOTS + 1, STEP_MEMO_WIDTH)),
+            held, y_floor, np.zeros((STEP_MEMO_SLOTS + 1, STEP_MEMO_WIDTH)),
             np.zeros((2, DENSE_WIDTH)),
         )  # fmt: skip
 

@@ -21,10 +21,10 @@ from xface_core._engine.events import (
     keep_trial_dense,
     locate,
     quarter_state,
-    segment_velocity,
     solve_or_integrate,
     step_to,
 )
+from xface_core._engine.motion import velocity
 from xface_core._engine.pairs import pair_at
 from xface_core._engine.records import (
     DENSE_WIDTH,
@@ -106,7 +106,7 @@ def test_release_function_is_the_contact_force(incline) -> None:
     seg = incline.segment(n_active=2, winv_b=1.0)
     ym = incline.y0 - incline.s_touch
     pm = incline.phi_m_at(incline.s_touch)
-    _, _, l1, l2 = segment_velocity(seg, 0.0, pm, ym)
+    _, _, l1, l2 = velocity(seg.held, 0.0, pm, ym)
     assert event_value(seg, E_RELEASE, 0, 0, 0.0, 0.0, pm, ym) == l1
     assert event_value(seg, E_RELEASE, 1, 1, 0.0, 0.0, pm, ym) == l2
 
@@ -134,7 +134,7 @@ def test_earlier_keeps_the_first_found_on_a_tie() -> None:
 
 def _fresh_step(seg, step, t: float) -> tuple[float, float, float, float, bool]:
     """The step without the memo: solved or integrated afresh from the start."""
-    k1b, k1m, _, _ = segment_velocity(seg, step.phi_b, step.phi_m, step.y_m)
+    k1b, k1m, _, _ = velocity(seg.held, step.phi_b, step.phi_m, step.y_m)
     return solve_or_integrate(seg._replace(dense=np.zeros((2, DENSE_WIDTH))), step, t, k1b, k1m)
 
 
@@ -162,7 +162,7 @@ def test_a_new_start_or_segment_is_not_answered_from_the_memo(incline) -> None:
 
 
 def _fresh_quarter(seg, pb: float, pm: float, ym: float) -> tuple[float, ...]:
-    vb, vm, _, _ = segment_velocity(seg, pb, pm, ym)
+    vb, vm, _, _ = velocity(seg.held, pb, pm, ym)
     return (math.cos(pb), math.sin(pb), math.cos(pm), math.sin(pm), vb, vm)
 
 

@@ -8,38 +8,26 @@ import pytest
 from xface_core._engine.integrate import dense_angles, project, rk_step
 from xface_core._engine.motion import velocity
 from xface_core._engine.pairs import pair_at
-from xface_core._engine.records import DENSE_WIDTH, FREE
 from xface_core.physics import DEFAULT_SETTINGS
-
-ONE = np.array([0, -1, -1, -1], dtype=np.int64)
-TWO = np.array([0, 1, -1, -1], dtype=np.int64)
-NO_SLIP = np.array([FREE, FREE], dtype=np.int64)
 
 
 def _dense_step(incline, h: float) -> tuple[float, float, np.ndarray]:
     """One projected step down the incline, its end angles and its dense output."""
-    dense = np.zeros((2, DENSE_WIDTH))
-    k1b, k1m, _, _ = velocity(incline.table, ONE, 1, 0.0, incline.phi_m0, incline.x0,
-                              incline.y0, 0.0, 1.0, 0.0, NO_SLIP)  # fmt: skip
-    nb, nm, _, _, ok = rk_step(
-        incline.table, ONE, 1, 0.0, incline.phi_m0, incline.x0, incline.y0, h,
-        0.0, 1.0, 0.0, 1.0, 0.0, NO_SLIP, k1b, k1m, dense,
-    )  # fmt: skip
+    seg = incline.segment()
+    k1b, k1m, _, _ = velocity(seg.held, 0.0, incline.phi_m0, incline.y0)
+    nb, nm, _, _, ok = rk_step(seg, incline.step(h), k1b, k1m)
     assert ok
-    return nb, nm, dense
+    return nb, nm, seg.dense
 
 
 def _step(incline, h: float, *, projected: bool = True) -> tuple[float, float, float, float, bool]:
     """One step down the held incline from its exact start. Without ``projected`` the
     projection is given no metric to move in (W^-1 = 0), leaving the bare Dormand-Prince
     step; the rate itself uses the held base's W^-1 = diag(0, 1) either way."""
-    w = 1.0 if projected else 0.0
-    k1b, k1m, _, _ = velocity(incline.table, ONE, 1, 0.0, incline.phi_m0, incline.x0,
-                              incline.y0, 0.0, 1.0, 0.0, NO_SLIP)  # fmt: skip
-    return rk_step(
-        incline.table, ONE, 1, 0.0, incline.phi_m0, incline.x0, incline.y0, h,
-        0.0, 1.0, 0.0, w, 0.0, NO_SLIP, k1b, k1m, np.zeros((2, DENSE_WIDTH)),
-    )  # fmt: skip
+    seg = incline.segment()
+    seg = seg._replace(held=seg.held._replace(winv_m=1.0 if projected else 0.0))
+    k1b, k1m, _, _ = velocity(seg.held, 0.0, incline.phi_m0, incline.y0)
+    return rk_step(seg, incline.step(h), k1b, k1m)
 
 
 def test_a_step_lands_on_the_closed_form_path(incline) -> None:
@@ -69,7 +57,7 @@ def test_projection_brings_one_contact_back_along_the_metric(incline) -> None:
     # Base free with W^-1 = diag(1/4, 1): the correction runs along W^-1 a.
     pb, pm, ym = 0.0, incline.phi_m0 + 1e-3, incline.y0
     assert abs(incline.gap(0, pm, ym, pb)) > 1e-4
-    qb, qm = project(incline.table, ONE, 1, pb, pm, incline.x0, ym, 0.25, 1.0)
+    qb, qm = project(incline.segment(winv_b=0.25).held, pb, pm, ym)
     assert abs(incline.gap(0, qm, ym, qb)) <= 2e-15
     _, _, a_b, a_m, *_ = pair_at(incline.table, 0, pb, pm, incline.x0, ym)
     along = np.array([0.25 * a_b, a_m])
@@ -82,15 +70,13 @@ def test_projection_brings_two_contacts_back(incline) -> None:
     ym = incline.y0 - incline.s_touch
     pb, pm = 2e-3, incline.phi_m_at(incline.s_touch) - 1e-3
     assert min(abs(incline.gap(0, pm, ym, pb)), abs(incline.gap(1, pm, ym, pb))) > 1e-4
-    qb, qm = project(incline.table, TWO, 2, pb, pm, incline.x0, ym, 1.0, 1.0)
+    qb, qm = project(incline.segment(n_active=2, winv_b=1.0).held, pb, pm, ym)
     assert abs(incline.gap(0, qm, ym, qb)) <= 2e-15
     assert abs(incline.gap(1, qm, ym, qb)) <= 2e-15
 
 
 def test_projection_of_a_held_base_leaves_it_alone(incline) -> None:
-    qb, qm = project(
-        incline.table, ONE, 1, 0.0, incline.phi_m0 - 1e-3, incline.x0, incline.y0, 0.0, 1.0
-    )
+    qb, qm = project(incline.segment().held, 0.0, incline.phi_m0 - 1e-3, incline.y0)
     assert qb == 0.0
     assert qm == pytest.approx(incline.phi_m0, abs=1e-15)
 

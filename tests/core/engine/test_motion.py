@@ -142,6 +142,16 @@ def _state(incline, pb: float = 0.05) -> tuple[float, float, float, float]:
     return pb, incline.phi_m0, incline.x0, 3.0 - g_ref / beta
 
 
+def _rate(
+    incline, n: int, state: tuple[float, float, float, float], *, sqb: float = 1.0,
+    mu: float = 0.0, slip: np.ndarray | None = None,
+) -> tuple[float, float, float, float]:  # fmt: skip
+    """:func:`velocity` at ``state`` with the first ``n`` pairs held (W^-1 = diag(sqb^2, 1))."""
+    pb, pm, _, ym = state
+    seg = incline.segment(n_active=n, winv_b=sqb * sqb, mu=mu, slip=slip)
+    return velocity(seg.held, pb, pm, ym)
+
+
 def _abc(incline, i: int, state: tuple[float, float, float, float]):
     """(a, beta, c, gamma) of pair i, unscaled."""
     _, _, a_b, a_m, beta, *_ = pair_at(incline.table, i, *state)
@@ -152,7 +162,7 @@ def _abc(incline, i: int, state: tuple[float, float, float, float]):
 @pytest.mark.parametrize("sqb", [0.0, 0.5, 1.0])
 def test_frictionless_rate_is_the_least_dissipation_rate(incline, sqb: float) -> None:
     state = _state(incline)
-    vb, vm, lam, x = velocity(incline.table, _act(1), 1, *state, sqb, 1.0, 0.0, _fresh_slip())
+    vb, vm, lam, x = _rate(incline, 1, state, sqb=sqb)
     ev = np.zeros((2, 6))
     eval_all_pairs(incline.table, *state, ev)
     (status, n, qb, qm), _ = _qp(ev[:1], sqb=sqb)
@@ -165,7 +175,7 @@ def test_frictionless_rate_is_the_least_dissipation_rate(incline, sqb: float) ->
 
 def test_two_frictionless_contacts_fix_the_rate(incline) -> None:
     state = _state(incline)
-    vb, vm, l1, l2 = velocity(incline.table, _act(2), 2, *state, 1.0, 1.0, 0.0, _fresh_slip())
+    vb, vm, l1, l2 = _rate(incline, 2, state)
     a1, b1, _, _ = _abc(incline, 0, state)
     a2, b2, _, _ = _abc(incline, 1, state)
     assert (a1 @ [vb, vm], a2 @ [vb, vm]) == pytest.approx((b1, b2), rel=1e-12)
@@ -175,7 +185,7 @@ def test_two_frictionless_contacts_fix_the_rate(incline) -> None:
 def test_a_stuck_contact_does_not_slip(incline) -> None:
     state = _state(incline)
     slip = _fresh_slip(STICK)
-    vb, vm, lam, tau = velocity(incline.table, _act(1), 1, *state, 1.0, 1.0, 0.9, slip)
+    vb, vm, lam, tau = _rate(incline, 1, state, mu=0.9, slip=slip)
     a, beta, c, gam = _abc(incline, 0, state)
     assert c @ [vb, vm] + gam == pytest.approx(0.0, abs=1e-12)
     assert a @ [vb, vm] == pytest.approx(beta, rel=1e-12)
@@ -187,7 +197,7 @@ def test_a_stuck_contact_does_not_slip(incline) -> None:
 def test_a_sliding_contact_pushes_along_a_minus_mu_s_c(incline, mode: int) -> None:
     state, mu, sqb = _state(incline), 0.3, 0.5
     slip = _fresh_slip(mode)
-    vb, vm, lam, x = velocity(incline.table, _act(1), 1, *state, sqb, 1.0, mu, slip)
+    vb, vm, lam, x = _rate(incline, 1, state, sqb=sqb, mu=mu, slip=slip)
     a, beta, c, _ = _abc(incline, 0, state)
     force = a - mu * mode * c
     assert lam >= 0.0
@@ -199,8 +209,8 @@ def test_a_sliding_contact_pushes_along_a_minus_mu_s_c(incline, mode: int) -> No
 def test_friction_shares_the_load_of_two_contacts_without_changing_the_rate(incline) -> None:
     state, mu = _state(incline), 0.4
     slip = np.array([SLIDE_POSITIVE, SLIDE_NEGATIVE], dtype=np.int64)
-    free = velocity(incline.table, _act(2), 2, *state, 1.0, 1.0, 0.0, _fresh_slip())
-    vb, vm, l1, l2 = velocity(incline.table, _act(2), 2, *state, 1.0, 1.0, mu, slip)
+    free = _rate(incline, 2, state)
+    vb, vm, l1, l2 = _rate(incline, 2, state, mu=mu, slip=slip)
     assert (vb, vm) == pytest.approx(free[:2], rel=1e-14)
     a1, _, c1, _ = _abc(incline, 0, state)
     a2, _, c2, _ = _abc(incline, 1, state)
@@ -241,25 +251,23 @@ def test_slip_rate_is_the_rate_of_the_vertex_along_the_edge(
 
 def _modes(incline, mu: float, sqb: float = 1.0) -> tuple[bool, int]:
     state = _state(incline)
-    act = _act(1)
-    v0b, v0m, _, _ = velocity(incline.table, act, 1, *state, sqb, 1.0, 0.0, _fresh_slip())
+    v0b, v0m, _, _ = _rate(incline, 1, state, sqb=sqb)
     slip = _fresh_slip()
-    ok = friction_modes(incline.table, act, 1, *state, sqb, 1.0, mu, slip, v0b, v0m)
+    seg = incline.segment(winv_b=sqb * sqb, mu=mu, slip=slip)
+    ok = friction_modes(seg.held, state[0], state[1], state[3], v0b, v0m)
     return ok, int(slip[0])
 
 
 def _stuck_ratio(incline) -> float:
     """|tau| / lambda of the stuck contact: the least mu that can hold it."""
-    _, _, lam, tau = velocity(
-        incline.table, _act(1), 1, *_state(incline), 1.0, 1.0, 1.0, _fresh_slip(STICK)
-    )
+    _, _, lam, tau = _rate(incline, 1, _state(incline), mu=1.0, slip=_fresh_slip(STICK))
     assert lam > 0.0
     return abs(tau) / lam
 
 
 def test_friction_modes_slide_the_way_the_frictionless_motion_slips(incline) -> None:
     state = _state(incline)
-    v0b, v0m, _, _ = velocity(incline.table, _act(1), 1, *state, 1.0, 1.0, 0.0, _fresh_slip())
+    v0b, v0m, _, _ = _rate(incline, 1, state)
     _, _, c, gam = _abc(incline, 0, state)
     frictionless_slip = c @ [v0b, v0m] + gam
     assert abs(frictionless_slip) > 0.1
@@ -284,10 +292,10 @@ def test_friction_modes_of_a_held_base_on_a_steep_wedge_lock(incline) -> None:
 
 def test_friction_modes_of_two_contacts_follow_the_fixed_rate(incline) -> None:
     state = _state(incline)
-    act = _act(2)
-    v0b, v0m, _, _ = velocity(incline.table, act, 2, *state, 1.0, 1.0, 0.0, _fresh_slip())
+    v0b, v0m, _, _ = _rate(incline, 2, state)
     slip = _fresh_slip()
-    assert friction_modes(incline.table, act, 2, *state, 1.0, 1.0, 0.4, slip, v0b, v0m)
+    seg = incline.segment(n_active=2, winv_b=1.0, mu=0.4, slip=slip)
+    assert friction_modes(seg.held, state[0], state[1], state[3], v0b, v0m)
     for k in range(2):
         _, _, c, gam = _abc(incline, k, state)
         rate = c @ [v0b, v0m] + gam

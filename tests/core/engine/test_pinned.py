@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 import xface_core as xf
-from xface_core._engine.events import Segment, Step, solve_or_integrate
+from xface_core._engine.events import solve_or_integrate
 from xface_core._engine.integrate import (
     PINNED_GAP,
     dense_angles,
@@ -26,7 +26,15 @@ from xface_core._engine.integrate import (
 )
 from xface_core._engine.motion import velocity
 from xface_core._engine.pairs import pair_at
-from xface_core._engine.records import DENSE_WIDTH, FREE, STEP_MEMO_SLOTS, STEP_MEMO_WIDTH
+from xface_core._engine.records import (
+    DENSE_WIDTH,
+    FREE,
+    STEP_MEMO_SLOTS,
+    STEP_MEMO_WIDTH,
+    Contacts,
+    Segment,
+    Step,
+)
 from xface_core.contact import pair_table
 
 NO_SLIP = np.array([FREE, FREE], dtype=np.int64)
@@ -50,9 +58,7 @@ class TwoContacts:
         self.ym = float(p.path.pivot_m[k, 1]) / design.width
 
     def rate(self, pb: float, pm: float, ym: float) -> tuple[float, float]:
-        vb, vm, _, _ = velocity(
-            self.table, self.act, 2, pb, pm, self.x0, ym, 1.0, 1.0, 0.0, NO_SLIP
-        )
+        vb, vm, _, _ = velocity(self.segment().held, pb, pm, ym)
         return vb, vm
 
     def gaps(self, pb: float, pm: float, ym: float) -> tuple[float, float]:
@@ -61,19 +67,17 @@ class TwoContacts:
         return g1, g2
 
     def step(self, h: float) -> tuple[float, float, bool, np.ndarray]:
-        dense = np.zeros((2, DENSE_WIDTH))
+        seg = self.segment()
         k1b, k1m = self.rate(self.pb, self.pm, self.ym)
-        nb, nm, ok = pinned_step(
-            self.table, self.act, 2, self.pb, self.pm, self.x0, self.ym, h, 1.0, 1.0, 0.0,
-            NO_SLIP, k1b, k1m, dense,
-        )  # fmt: skip
-        return nb, nm, ok, dense
+        nb, nm, ok = pinned_step(seg, Step(self.pb, self.pm, self.ym, h), k1b, k1m)
+        return nb, nm, ok, seg.dense
 
     def segment(self) -> Segment:
         """The segment of the two contacts, frictionless, both parts free."""
+        held = Contacts(self.table, self.act, 2, 0.0, NO_SLIP.copy(), self.x0, 1.0, 1.0, 1.0, 1.0)
         return Segment(
-            self.table, self.act, 2, 0.0, NO_SLIP.copy(), self.x0, -math.inf, 1.0, 1.0, 1.0,
-            1.0, np.zeros((STEP_MEMO_SLOTS + 1, STEP_MEMO_WIDTH)), np.zeros((2, DENSE_WIDTH)),
+            held, -math.inf, np.zeros((STEP_MEMO_SLOTS + 1, STEP_MEMO_WIDTH)),
+            np.zeros((2, DENSE_WIDTH)),
         )  # fmt: skip
 
     def integrated(self, h: float, n: int = 1000) -> tuple[float, float]:
@@ -160,7 +164,8 @@ def test_which_contacts_pin_the_path() -> None:
 def test_one_contact_twice_is_not_solved(held: TwoContacts) -> None:
     # Two copies of one contact: parallel gradients, no unique solution.
     act = np.array([held.act[0], held.act[0], -1, -1], dtype=np.int64)
-    *_, converged = pinned_solve(held.table, act, held.pb, held.pm, held.x0, held.ym - 1e-3)
+    contacts = held.segment().held._replace(act=act)
+    *_, converged = pinned_solve(contacts, held.pb, held.pm, held.ym - 1e-3)
     assert not converged
 
 
@@ -173,22 +178,16 @@ def test_a_step_past_where_the_contacts_can_hold_is_not_solved(held: TwoContacts
 
 def test_pinned_solve_returns_the_rate_of_the_contacts(held: TwoContacts) -> None:
     h = 0.002
-    nb, nm, vb, vm, converged = pinned_solve(
-        held.table, held.act, held.pb, held.pm, held.x0, held.ym - h
-    )
+    nb, nm, vb, vm, converged = pinned_solve(held.segment().held, held.pb, held.pm, held.ym - h)
     assert converged
     assert (vb, vm) == pytest.approx(held.rate(nb, nm, held.ym - h), rel=1e-12)
     assert math.isfinite(vb + vm)
 
 
-ONE = np.array([0, -1, -1, -1], dtype=np.int64)
-
-
 def _held_step(incline, h: float, mu: float = 0.0) -> tuple[float, float, float, float, bool]:
     """A step down the hand-built incline (conftest): one contact, base held."""
-    seg = incline.segment()._replace(mu=mu)
-    k1b, k1m, _, _ = velocity(incline.table, ONE, 1, 0.0, incline.phi_m0, incline.x0,
-                              incline.y0, 0.0, 1.0, mu, NO_SLIP)  # fmt: skip
+    seg = incline.segment(mu=mu)
+    k1b, k1m, _, _ = velocity(seg.held, 0.0, incline.phi_m0, incline.y0)
     return solve_or_integrate(seg, incline.step(h), h, k1b, k1m)
 
 
@@ -213,10 +212,9 @@ def test_a_held_step_with_friction_is_integrated(incline) -> None:
 def test_held_solve_returns_the_rate_of_the_held_contact(incline) -> None:
     h = 0.01
     pb, pm, vb, vm, converged = held_solve(
-        incline.table, ONE, 0.0, incline.phi_m0, incline.x0, incline.y0 - h
+        incline.segment().held, 0.0, incline.phi_m0, incline.y0 - h
     )
     assert converged
     assert pb == 0.0
-    wb, wm, _, _ = velocity(incline.table, ONE, 1, pb, pm, incline.x0, incline.y0 - h,
-                            0.0, 1.0, 0.0, NO_SLIP)  # fmt: skip
+    wb, wm, _, _ = velocity(incline.segment().held, pb, pm, incline.y0 - h)
     assert (vb, vm) == pytest.approx((wb, wm), rel=1e-12, abs=1e-15)

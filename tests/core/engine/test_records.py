@@ -121,7 +121,8 @@ def test_reset_work_returns_a_used_work_to_how_new_work_starts_it() -> None:
 #: a run calls below ``simulate.simulate`` allocates nothing and runs without it.
 ENTRIES_WITH_NRT = {
     "records.new_work", "segment.begin_segment",
-    "segment._segment",  # inlined: built under its caller's (no) reference counting
+    # Inlined: the segment's tuple is built under its caller's (no) reference counting.
+    "records.frictionless", "records.held_contacts", "segment._segment",
     "simulate._final_values", "simulate._options", "simulate._run_pose",
     "simulate._run_recorded", "simulate._start", "simulate.lowest_reach",
     "simulate.path_arrays", "simulate.simulate_final",
@@ -164,7 +165,7 @@ def test_the_engine_below_its_entries_runs_without_reference_counting() -> None:
 INLINED = {
     "events.contact_value", "pairs._cone_admits", "pairs._side_of_all", "pairs.adjacent_gap",
     "pairs.clipped_gap", "pairs.eval_pair", "pairs.pair_at", "pairs.wedges_cross",
-    "scan._crossing", "segment._segment",
+    "records.frictionless", "records.held_contacts", "scan._crossing", "segment._segment",
 }  # fmt: skip
 
 

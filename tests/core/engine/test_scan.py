@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import xface_core as xf
-from xface_core._engine.events import NO_EVENT, Segment, Step, step_to
+from xface_core._engine.events import NO_EVENT, step_to
 from xface_core._engine.pairs import eval_all_pairs, pair_at
 from xface_core._engine.records import (
     CORNER_REACH,
@@ -18,6 +18,9 @@ from xface_core._engine.records import (
     FREE,
     STEP_MEMO_SLOTS,
     STEP_MEMO_WIDTH,
+    Contacts,
+    Segment,
+    Step,
     Work,
     make_options,
 )
@@ -61,7 +64,8 @@ def _work(table: np.ndarray, pb: float, pm: float, x0: float, ym: float) -> Work
 
 def _scan(incline, h: float, y_floor: float = -np.inf, table: np.ndarray | None = None):
     table = incline.table if table is None else table
-    seg = incline.segment(y_floor=y_floor)._replace(pairs=table)
+    seg = incline.segment(y_floor=y_floor)
+    seg = seg._replace(held=seg.held._replace(pairs=table))
     step = incline.step(h)
     work = _work(table, 0.0, step.phi_m, incline.x0, step.y_m)
     nb, nm, _, _, ok = step_to(seg, step, h)
@@ -116,10 +120,13 @@ def _segments_of_a_dock(design, x0: float, theta0: float):
         if not held:
             continue
         act[: len(held)] = held
-        seg = Segment(
-            model.pairs, act, len(held), 0.0, np.full(2, FREE, dtype=np.int64), x0, -np.inf,
+        contacts = Contacts(
+            model.pairs, act, len(held), 0.0, np.full(2, FREE, dtype=np.int64), x0,
             opts.sqrt_winv_b, opts.sqrt_winv_m, opts.winv_b, opts.winv_m,
-            np.zeros((STEP_MEMO_SLOTS + 1, STEP_MEMO_WIDTH)), np.zeros((2, DENSE_WIDTH)),
+        )  # fmt: skip
+        seg = Segment(
+            contacts, -np.inf, np.zeros((STEP_MEMO_SLOTS + 1, STEP_MEMO_WIDTH)),
+            np.zeros((2, DENSE_WIDTH)),
         )  # fmt: skip
         y = y0 - p.path.descent[k] / design.width
         yield seg, Step(float(p.path.phi_b[k]), float(p.path.phi_m[k]), float(y), 0.0)
@@ -156,11 +163,11 @@ def test_the_gap_never_rises_above_its_ceiling_in_a_step(design, x0, theta0) -> 
     # the quarters alike.
     checked = 0
     for seg, step, rates, ends in _screened_steps(design, x0, theta0):
-        for i in range(seg.pairs.shape[0]):
+        for i in range(seg.held.pairs.shape[0]):
             top, low = -np.inf, np.inf
             for t in np.linspace(0.0, step.h, 64):
                 pb, pm, _, _, _ = step_to(seg, step, t)
-                g = pair_at(seg.pairs, i, pb, pm, seg.x0, step.y_m - t)[0]
+                g = pair_at(seg.held.pairs, i, pb, pm, seg.held.x0, step.y_m - t)[0]
                 top, low = max(top, g), min(low, g)
             for pieces in (1, 4):
                 floor, ceiling, _, _ = _gap_bounds(seg, step, i, rates, pieces, *ends)
@@ -184,14 +191,14 @@ def test_the_pairs_near_their_edge_are_listed_for_the_dip_search(design, x0, the
     listed = 0
     for seg, step, _, ends in _screened_steps(design, x0, theta0):
         nb, nm, _, _, _ = step_to(seg, step, step.h)
-        work = _work(seg.pairs, step.phi_b, step.phi_m, seg.x0, step.y_m)
+        work = _work(seg.held.pairs, step.phi_b, step.phi_m, seg.held.x0, step.y_m)
         _, _, n_near = _contact_events(OPTS, seg, step, work, nb, nm, *ends, NO_EVENT)
         turn = abs(nb - step.phi_b) + abs(nm - step.phi_m)
         expected = []
-        for i in range(seg.pairs.shape[0]):
-            if i in seg.act[: seg.n_active]:
+        for i in range(seg.held.pairs.shape[0]):
+            if i in seg.held.act[: seg.held.n_active]:
                 continue
-            row, bound = seg.pairs[i], _travel(seg.pairs[i], step.h, turn)
+            row, bound = seg.held.pairs[i], _travel(seg.held.pairs[i], step.h, turn)
             g0, u0, g1, u1 = work.g_prev[i], work.u_prev[i], work.g_next[i], work.u_next[i]
             if min(_segment_distance(row, g0, u0), _segment_distance(row, g1, u1)) <= bound:
                 expected.append(i)
@@ -209,7 +216,7 @@ def test_the_shared_screen_decides_as_the_two_screens_do(design, x0, theta0) -> 
     # skip exactly the pairs that one of the two would skip, at thresholds either side.
     decided = set()
     for seg, step, rates, ends in _screened_steps(design, x0, theta0):
-        for i in range(seg.pairs.shape[0]):
+        for i in range(seg.held.pairs.shape[0]):
             for thr in (-0.1, -1e-9, 0.0, 0.02):
                 # The outside screen: the bound from the step's ends stays above thr.
                 outside = _gap_bounds(seg, step, i, rates, 1, *ends)[0] > thr

@@ -5,7 +5,6 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from xface_core._engine.events import Step
 from xface_core._engine.pairs import COL_REACH
 from xface_core._engine.records import (
     E_CONTACT,
@@ -14,6 +13,7 @@ from xface_core._engine.records import (
     RUN_DTYPE,
     UNDECIDED,
     Model,
+    Step,
     make_options,
     new_work,
 )
@@ -60,7 +60,7 @@ def test_begin_segment_starts_exactly_on_the_contact(incline) -> None:
     seg, runs, _, path, _ = _begin(incline, incline.phi_m0 + 1e-9, incline.y0)
     r = runs[0]
     assert abs(incline.gap(0, r["phi_m"], r["y_m"])) <= 1e-15
-    assert (seg.n_active, seg.act[0], seg.x0) == (1, 0, incline.x0)
+    assert (seg.held.n_active, seg.held.act[0], seg.held.x0) == (1, 0, incline.x0)
     assert path[0].tolist() == [r["y_m"], 0.0, r["phi_m"], P_ALIGN]
 
 
