@@ -4,8 +4,8 @@ Compiling the engine is what a fresh install's first simulation would pay: about
 on these machines. So the build compiles it once (``python -m xface_core.precompile DIR``,
 run by the wheel's build and by ``make setup``) for a generic CPU of the build machine's
 architecture (``NUMBA_CPU_NAME=generic``: it runs at host speed, measured by
-``scripts/bench_generic_build.py``), in numba's own cache format, into :data:`SHIPPED_DIR` with a
-:data:`MANIFEST_NAME` that says what it was built from.
+``scripts/bench/bench_generic_build.py``), in numba's own cache format, into
+:data:`SHIPPED_DIR` with a :data:`MANIFEST_NAME` that says what it was built from.
 
 At run time every cached engine kernel looks in two places (:class:`ShippedFunctionCache`):
 
