@@ -125,8 +125,9 @@ class DesignSpace:
     Examples
     --------
     >>> space = DesignSpace(faces=("X", "V"), h_over_d=(0.25, 0.5), r_p=(1.0, 2.0))
-    >>> len(space), space.points()[0]
-    (8, DesignPoint(face='X', h_over_d=0.25, r_p=1.0, friction=0.0, damping_ratio=1.0))
+    >>> len(space), space.points()[0]  # doctest: +NORMALIZE_WHITESPACE
+    (8, DesignPoint(face='X', h_over_d=0.25, r_p=1.0, friction=0.0, damping_ratio=1.0,
+                    face_digest=''))
     >>> DesignSpace(faces=("Q",), h_over_d=(1.0,), r_p=(1.0,)).points()
     Traceback (most recent call last):
     ...
