@@ -925,18 +925,13 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     return run_bench(args)
 
 
-def _version() -> str:
-    """The installed distribution's version (:func:`~xface_core.runner.xface_version`)."""
-    return xface_version()
-
-
 def version_text() -> str:
     """``xface <version>`` and ``engine: <state>`` (ready, or compiles on first use, and how
     long): the two things a first run depends on. Reads numba's cache and the install; it
     neither simulates nor imports an extra."""
     from xface_core.runner import engine_state  # only here: every other run would pay for the look
 
-    return f"xface {_version()}\nengine: {engine_state().describe()}"
+    return f"xface {xface_version()}\nengine: {engine_state().describe()}"
 
 
 class _VersionAction(argparse.Action):
