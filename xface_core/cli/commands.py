@@ -63,6 +63,7 @@ from xface_core.physics import DEFAULT_PHYSICS, Physics
 from xface_core.predict import predict
 from xface_core.runner import engine_is_cached, xface_version
 
+from .optimize import add_optimize_command
 from .progress import ProgressBar, terminal_progress
 from .study import EXIT_INTERRUPTED, add_study_commands, atomic_output
 
@@ -106,6 +107,8 @@ def _check_viz(args: argparse.Namespace) -> None:
     ]
     if args.command == "bench":  # the bench always draws its work-precision plot
         needed.append(("bench", "benchplot"))
+    if args.command == "optimize":  # it draws the best face's maps and outlines
+        needed.append(("optimize", "comparefig"))
     for option, module in needed:
         try:
             importlib.import_module(f"{_CORE}.viz.{module}")
@@ -138,7 +141,7 @@ def _check_workers(args: argparse.Namespace) -> None:
 
 def _check_crosscheck(args: argparse.Namespace) -> None:
     """Import the cross-check (and so pymunk) before anything runs, if the command needs it."""
-    if args.command != "crosscheck":
+    if args.command != "crosscheck" and not (args.command == "optimize" and not args.no_crosscheck):
         return
     try:
         importlib.import_module(f"{_CORE}.crosscheck.compare")
@@ -199,7 +202,7 @@ def _check_output_names(args: argparse.Namespace) -> None:
     for name in ("png", "svg", "rrd", "dxf", "out"):
         value = getattr(args, name, None)
         if value is not None:
-            folder = name == "out" and args.command == "bench"
+            folder = name == "out" and args.command in ("bench", "optimize")
             _check_output_name(value, f"--{name}", folder=folder)
 
 
@@ -1079,6 +1082,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_cmd_draw)
 
     add_study_commands(sub)
+    add_optimize_command(sub)
 
     p = sub.add_parser("bench", help="work-precision benchmark and stress summary")
     p.add_argument("--out", default="bench", help="output folder for the table and plot")
@@ -1305,7 +1309,8 @@ def _run(argv: Sequence[str] | None) -> int:
         _say(f"xface: {exc.args[0]} needs the viz extra: {_VIZ_HINT}")
         return 2
     except _CrosscheckMissing:
-        _say(f"xface: crosscheck needs the crosscheck extra: {_CROSSCHECK_HINT}")
+        what = "crosscheck" if args.command == "crosscheck" else "optimize's cross-check"
+        _say(f"xface: {what} needs the crosscheck extra: {_CROSSCHECK_HINT} (or --no-crosscheck)")
         return 2
     except XfaceError as exc:  # a FaceFileError quoting YAML's report too: one line
         _say(f"xface: error: {_one_line(str(exc))}")

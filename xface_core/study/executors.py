@@ -7,6 +7,7 @@ executor are accepted:
 - ``None``: local processes (forked, one per core by default) that this module owns. When one
   of them dies (killed, out of memory), the pool breaks; it is started again and the jobs
   that had not finished are submitted again, each at most ``retries`` more times.
+- a :class:`LocalPool` of the caller's: the same, but the workers outlive the call.
 - any :class:`concurrent.futures.Executor` (threads, processes, ``mpi4py``'s, ...): used as
   given, never shut down here.
 - a ``dask.distributed.Client`` (anything else with ``submit``, ``cancel`` and ``loop``): its
@@ -33,7 +34,7 @@ from typing import Any, Protocol, TypeVar
 
 from xface_core.errors import XfaceError
 
-__all__ = ["ClientLike", "WorkerLost", "execute"]
+__all__ = ["ClientLike", "LocalPool", "WorkerLost", "execute"]
 
 J = TypeVar("J")
 R = TypeVar("R")
@@ -64,12 +65,24 @@ def _ignore_interrupts() -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
-class _LocalPool:
-    """Forked worker processes that can be started again after one of them died."""
+class LocalPool:
+    """Forked worker processes that can be started again after one of them died.
+
+    :func:`execute` makes one per call when given no executor; a caller that calls it many
+    times over (a search, one generation of designs per call) passes one of its own and
+    keeps the workers, and the engine they loaded, between calls (a context manager: the
+    workers end with it).
+    """
 
     def __init__(self, workers: int) -> None:
         self.workers = workers
         self.executor = self._start()
+
+    def __enter__(self) -> LocalPool:
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.close(wait=exc_info[0] is None)
 
     def _start(self) -> ProcessPoolExecutor:
         return ProcessPoolExecutor(
@@ -104,7 +117,7 @@ def execute(
     jobs: Sequence[J],
     on_result: Callable[[J, R], None],
     *,
-    executor: Executor | ClientLike | None = None,
+    executor: Executor | ClientLike | LocalPool | None = None,
     workers: int | None = None,
     retries: int = DEFAULT_RETRIES,
 ) -> None:
@@ -126,10 +139,14 @@ def execute(
         for job in jobs:
             on_result(job, fn(job))
         return
-    pool: _LocalPool | None = None
+    pool: LocalPool | None = None
+    owned = executor is None  # a pool made here ends here; a caller's stays up
     target: Executor
     if executor is None:
-        pool = _LocalPool(n_workers)
+        pool = LocalPool(n_workers)
+        target = pool.executor
+    elif isinstance(executor, LocalPool):
+        pool = executor
         target = pool.executor
     elif isinstance(executor, Executor):
         target = executor
@@ -152,7 +169,7 @@ def execute(
         interrupted = True
         raise
     finally:
-        if pool is not None:
+        if pool is not None and owned:
             pool.close(wait=not interrupted)
 
 

@@ -476,6 +476,7 @@ class StudyFile:
             self._check_versions(writers, allow_version_mix)
             columns = (table[c].to_pylist() for c in KEY_COLUMNS)
             self._done = {DesignPoint(*key) for key in zip(*columns, strict=True)}
+            self._rows: list[dict[str, Any]] = table.to_pylist()
             self.parts.mkdir(parents=False, exist_ok=True)
             # A part, or a folded table, whose writer was killed before its rename.
             for stale in [*self.parts.glob("*.tmp"), self._folded_tmp()]:
@@ -541,6 +542,11 @@ class StudyFile:
     def done(self) -> set[DesignPoint]:
         """The designs already in the table or its parts when this run started."""
         return set(self._done)
+
+    def rows(self) -> list[dict[str, Any]]:
+        """The rows already in the table or its parts when this run started (one per design,
+        checked as :meth:`done`'s)."""
+        return [dict(row) for row in self._rows]
 
     def write_row(self, row: Mapping[str, Any]) -> None:
         """One finished design, whole or not at all (written aside, then renamed)."""

@@ -1,0 +1,329 @@
+"""``xface optimize``: search a profile family for a face that beats the X-Face
+(:mod:`xface_core.study.optimize`), then write what a designer takes away.
+
+Into ``--out`` (a folder; running the same command again resumes the search from its
+``evaluations.parquet``):
+
+- ``best.yaml``: the best face as a face file (docs/facefile.md), at ``--width``;
+- ``best_map.png``: its acceptance map; ``compare.png``: the X-Face's, the best face's and
+  their difference, on the same grid and physics;
+- ``best_face.png`` and ``best_face.dxf``: the drawing of both parts, mated and apart (the
+  DXF with the cad extra);
+- ``crosscheck.json``: the best face against Chipmunk2D, cell by cell at converged settings
+  (the crosscheck extra; ``--no-crosscheck`` skips it): an optimiser finds a model's
+  mistakes first, so the winner is confirmed by the independent engine;
+- ``summary.json``: the search (family, settings, evaluations, rate, restarts), the best
+  face and the X-Face side by side, and the cross-check's numbers.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+from collections.abc import Callable
+from functools import partial
+from pathlib import Path
+from typing import Any
+
+from xface_core.errors import XfaceValueError
+from xface_core.facefile import save_face
+from xface_core.geometry import FaceDesign, x_face
+from xface_core.maps.acceptance import AcceptanceMap, acceptance_map
+from xface_core.physics import Physics
+from xface_core.study.optimize import (
+    EVALUATIONS_FILE,
+    FaceSearch,
+    ProfileFamily,
+    SearchProgress,
+    optimize_face,
+)
+from xface_core.study.search import CRITERIA
+
+from . import progress
+from .study import (
+    _common_study_args,
+    _executor,
+    _interrupted,
+    _noise,
+    _sigterm_interrupts,
+    _warnings_as_lines,
+    atomic_output,
+)
+
+__all__ = ["add_optimize_command"]
+
+#: The grid the issue's comparison is made on, and the search's default.
+DEFAULT_GRID = 41
+
+
+class _Bar(progress.ProgressBar):
+    def __call__(self, p: SearchProgress) -> None:
+        self.draw(p.evaluations, p.budget, p.elapsed, f", best {p.best:g}")
+
+
+def _cmd_optimize(args: argparse.Namespace) -> int:
+    with _warnings_as_lines():
+        return _optimize(args)
+
+
+def _family(args: argparse.Namespace) -> ProfileFamily:
+    return ProfileFamily(
+        args.h_over_d,
+        args.rp,
+        vertices=args.vertices,
+        layers=args.layers,
+        min_feature=args.min_feature,
+        max_wall_deg=args.max_wall_deg,
+    )
+
+
+def _optimize(args: argparse.Namespace) -> int:
+    family = _family(args)
+    noise = _noise(args)
+    physics = Physics(damping_ratio=args.damping_ratio, friction=args.friction)
+    width = x_face(1.0, 1.0, width=args.width).width  # checked before the search runs
+    if args.criterion == "seat_probability" and noise is None:
+        raise XfaceValueError("--criterion seat_probability needs --sigma-x and --sigma-theta")
+    label = partial(_Bar, label="optimize", unit="evaluations")
+    try:
+        with (
+            _sigterm_interrupts(),
+            _executor(args) as client,
+            progress.terminal_progress(args.quiet, label) as bar,
+        ):
+            found = optimize_face(
+                family,
+                args.out,
+                criterion=args.criterion,
+                grid=args.grid,
+                theta_kind=args.theta_grid,
+                friction=args.friction,
+                damping_ratio=args.damping_ratio,
+                noise=noise,
+                budget=args.budget,
+                popsize=args.popsize,
+                sigma0=args.sigma0,
+                seed=args.seed,
+                executor=client,
+                workers=args.workers,
+                progress=bar,
+                allow_version_mix=args.allow_version_mix,
+            )
+    except KeyboardInterrupt:
+        return _interrupted(str(Path(args.out) / EVALUATIONS_FILE))
+    folder = Path(args.out)
+    best = found.best_design.with_width(width)
+    start = x_face(family.h_over_d, family.r_p, width=width)
+    maps = [
+        acceptance_map(d, grid=args.grid, theta_kind=args.theta_grid, physics=physics)
+        for d in (start, best)
+    ]
+    written = _write_outputs(args, folder, best, start, maps)
+    check = None if args.no_crosscheck else _crosscheck(args, folder, best, physics)
+    if check is not None:
+        written.append(check["file"])
+    written.append(str(folder / "summary.json"))
+    summary = _summary(args, found, maps, check, written)
+    with atomic_output(folder / "summary.json", "the summary") as aside:
+        Path(aside).write_text(json.dumps(summary, indent=2) + "\n")
+    if args.json:
+        print(json.dumps(summary))
+    else:
+        for line in _summary_lines(found, summary):
+            print(line)
+    return 0
+
+
+def _write_outputs(
+    args: argparse.Namespace,
+    folder: Path,
+    best: FaceDesign,
+    start: FaceDesign,
+    maps: list[AcceptanceMap],
+) -> list[str]:
+    """The face file, the maps and the drawing; the files written."""
+    from xface_core.viz.comparefig import save_comparison
+    from xface_core.viz.facedraw import face_drawing, save_face_picture
+    from xface_core.viz.mapimage import design_title, save_map_picture
+
+    written = []
+    target = folder / "best.yaml"
+    with atomic_output(target, "the face file") as aside:
+        save_face(best, aside)
+    written.append(str(target))
+    pictures: dict[str, Callable[[str], object]] = {
+        "best_map.png": partial(save_map_picture, maps[1], fmt="png"),
+        "compare.png": partial(
+            save_comparison,
+            maps[0],
+            maps[1],
+            labels=(design_title(start), design_title(best)),
+            fmt="png",
+        ),
+        "best_face.png": partial(save_face_picture, face_drawing(best), fmt="png"),
+    }
+    try:
+        from xface_core.viz.facecad import save_face_dxf
+
+        pictures["best_face.dxf"] = partial(save_face_dxf, face_drawing(best))
+    except ImportError as exc:
+        if (exc.name or "").partition(".")[0] != "ezdxf":
+            raise
+        print("xface: best_face.dxf skipped: the cad extra is not installed", file=sys.stderr)
+    for name, write in pictures.items():
+        with atomic_output(folder / name, "the picture") as aside:
+            write(aside)
+        written.append(str(folder / name))
+    return written
+
+
+def _crosscheck(
+    args: argparse.Namespace, folder: Path, best: FaceDesign, physics: Physics
+) -> dict[str, Any]:
+    """The best face against Chipmunk2D on the search's grid, converged (crosscheck.json)."""
+    from xface_core.crosscheck.compare import crosscheck, result_json, stderr_progress
+
+    result = crosscheck(
+        best,
+        physics,
+        grid=args.grid,
+        converged=True,
+        workers=args.workers,
+        progress=None if args.quiet or not sys.stderr.isatty() else stderr_progress,
+    )
+    target = folder / "crosscheck.json"
+    with atomic_output(target, "the cross-check") as aside:
+        Path(aside).write_text(json.dumps(result_json(result), default=_finite) + "\n")
+    m_xface, m_engine, m_rounded = result.m_values()
+    return {
+        "file": str(target),
+        "agreement": result.agreement,
+        "unambiguous": result.n_unambiguous,
+        "ambiguous": result.n_ambiguous,
+        "false_seated": result.false_seated,
+        "false_failures": result.false_failures,
+        "converged": result.converged,
+        "M_xface": m_xface,
+        "M_engine": m_engine,
+        "M_engine_rounded": m_rounded,
+        "seconds": result.seconds,
+    }
+
+
+def _finite(o: object) -> object:
+    import numpy as np
+
+    if isinstance(o, np.generic):
+        return o.item()
+    raise TypeError(f"{type(o).__name__} is not JSON")
+
+
+def _summary(
+    args: argparse.Namespace,
+    found: FaceSearch,
+    maps: list[AcceptanceMap],
+    check: dict[str, Any] | None,
+    written: list[str],
+) -> dict[str, Any]:
+    column = CRITERIA[args.criterion]
+    gain = found.score / found.start_score - 1.0 if found.start_score > 0 else None
+    workers = args.workers if args.workers is not None else (os.cpu_count() or 1)
+    rate = found.simulated / found.evaluation_seconds if found.evaluation_seconds > 0 else None
+    return {
+        "criterion": args.criterion,
+        "column": column,
+        "family": found.family.as_dict(),
+        "grid": args.grid,
+        "theta_kind": args.theta_grid,
+        "friction": args.friction,
+        "damping_ratio": args.damping_ratio,
+        "budget": args.budget,
+        "seed": args.seed,
+        "evaluations": found.evaluations,
+        "simulated": found.simulated,
+        "restarts": found.restarts,
+        "stop_reasons": list(found.stop_reasons),
+        "seconds": found.seconds,
+        "evaluations_per_second": rate,
+        "workers": None if args.scheduler else workers,
+        "x_face": {"score": found.start_score, "M": maps[0].M, "row": found.start},
+        "best": {
+            "name": found.best_design.display_name,
+            "score": found.score,
+            "M": maps[1].M,
+            "gain": gain,
+            "point": found.best_point.tolist(),
+            "profile": found.family.profile(found.best_point).tolist(),
+            "row": found.best,
+        },
+        "history": [list(h) for h in found.history],
+        "crosscheck": check,
+        "files": [*written],
+    }
+
+
+def _summary_lines(found: FaceSearch, s: dict[str, Any]) -> list[str]:
+    f = found.family
+    rate = s["evaluations_per_second"]
+    where = f"on {s['workers']} workers" if s["workers"] else "on the cluster"
+    lines = [
+        (
+            f"optimize {found.best_design.display_name} by {s['criterion']} ({s['column']}) on a "
+            f"{s['grid']} x {s['grid']} pose grid, friction {s['friction']:g}, damping ratio "
+            f"{s['damping_ratio']:g}"
+        ),
+        (
+            f"search   {s['evaluations']} evaluations ({s['simulated']} faces simulated in this "
+            f"run, {s['restarts']} restarts), {s['seconds']:.0f} s"
+            + (f", {rate:.1f} evaluations/s {where}" if rate else "")
+        ),
+        f"X-Face   H/D {f.h_over_d:g} r_p {f.r_p:g}: {s['column']} = {found.start_score:g}",
+        f"best     {s['column']} = {found.score:g}"
+        + (
+            f" ({100 * s['best']['gain']:+.1f} % against the X-Face)"
+            if s["best"]["gain"] is not None
+            else ""
+        ),
+        "profile  "
+        + ", ".join(f"({x:+.4f}, {y:.4f})" for x, y in s["best"]["profile"])
+        + " D, first layer, left to right",
+    ]
+    c = s["crosscheck"]
+    if c is not None:
+        conv = "converged" if c["converged"] else "NOT converged"
+        lines.append(
+            f"engine   Chipmunk2D ({conv}): agreement {100 * c['agreement']:.2f} % of "
+            f"{c['unambiguous']} unambiguous cells, false SEATED {c['false_seated']}, false "
+            f"failures {c['false_failures']}, M engine {c['M_engine']} / xface {c['M_xface']}"
+        )
+    lines.append("wrote    " + ", ".join(s["files"]))
+    return lines
+
+
+def add_optimize_command(sub: Any) -> None:
+    """Add ``optimize`` to the ``xface`` subcommands."""
+    p = sub.add_parser(
+        "optimize", help="search face profiles (CMA-ES from the X-Face) for a better face"
+    )
+    p.add_argument("--h-over-d", type=float, default=0.25, help="height bound H/D")
+    p.add_argument("--rp", type=float, default=1.0, help="pivot to profile base (widths D)")
+    p.add_argument("--vertices", type=int, default=3, help="free vertices per half profile")
+    p.add_argument(
+        "--layers", type=int, choices=(1, 2), default=2, help="2: a mirrored pair (X-Face's)"
+    )
+    p.add_argument("--min-feature", type=float, default=0.05, help="smallest edge span (D)")
+    p.add_argument("--max-wall-deg", type=float, default=75.0, help="steepest edge (deg)")
+    p.add_argument("--criterion", choices=tuple(CRITERIA), default="M")
+    p.add_argument("--friction", type=float, default=0.0, help="Coulomb coefficient mu")
+    p.add_argument("--damping-ratio", type=float, default=1.0, help="c_B / c_M (inf: fixed)")
+    p.add_argument("--budget", type=int, default=1500, help="evaluations (faces) to spend")
+    p.add_argument("--popsize", type=int, default=None, help="faces per generation")
+    p.add_argument("--sigma0", type=float, default=0.15, help="first step (unit box)")
+    p.add_argument("--seed", type=int, default=1, help="the optimiser's random numbers")
+    p.add_argument("--width", type=float, default=1.0, help="D of the face file written")
+    p.add_argument("--no-crosscheck", action="store_true", help="skip the Chipmunk2D check")
+    p.add_argument("--out", required=True, help="output folder (the search resumes from it)")
+    _common_study_args(p)
+    p.set_defaults(func=_cmd_optimize, grid=DEFAULT_GRID)
