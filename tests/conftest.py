@@ -64,6 +64,11 @@ def pytest_configure(config: pytest.Config) -> None:
             "XFACE_REQUIRE_ROS=1 but rclpy is not importable: install the extra with "
             "`pip install -e '.[ros,test]'` (or run `make test`, which does)"
         )
+    if _ROS_REQUIRED and importlib.util.find_spec("xface_msgs") is None:
+        raise pytest.UsageError(
+            "XFACE_REQUIRE_ROS=1 but the ROS interfaces xface_msgs are not built: run "
+            "`make msgs` (or `python scripts/build_msgs.py --prefix .venv`)"
+        )
 
 
 def pytest_report_header(config: pytest.Config) -> list[str]:
