@@ -44,10 +44,11 @@ FaceKind = Literal["X", "V", "S", "custom"]
 FloatArray = npt.NDArray[np.float64]
 
 #: Largest accepted H/D and r_p: the range the engine is verified over (docs/model.md,
-#: "Range"). A seeded random probe (scripts/evidence/range_probe.py) found no interpenetration,
-#: UNRESOLVED, mirror or symmetry-filling disagreement from H/D 1e-3 to 100 (4600 runs at
-#: 10-100), and 14 findings in 1401 runs at H/D 100-200 (the first at 107); 50 keeps a factor
-#: 2 below that. The paper's metric "plateaus" long before (Section IV-A).
+#: "Range"). A seeded random probe of the built-in faces (scripts/evidence/range_probe.py)
+#: found no interpenetration, UNRESOLVED, mirror or symmetry-filling disagreement up to H/D 100
+#: (3000 runs at 10-100, 1538 at 50-100), and 24 in 16 of 1462 runs at 100-200 (issue 37's
+#: reproducers start at 102); 50 keeps a factor 2 below that. The paper's metric "plateaus"
+#: long before (Section IV-A).
 MAX_DESIGN_RATIO = 50.0
 
 #: Largest accepted vertex coordinate of a custom face (D): r_p + H of the largest built-in
