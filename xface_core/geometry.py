@@ -43,23 +43,46 @@ __all__ = [
 FaceKind = Literal["X", "V", "S", "custom"]
 FloatArray = npt.NDArray[np.float64]
 
-#: Largest accepted H/D and r_p: beyond these the paper's metric "plateaus" (Section IV-A)
-#: and double precision starts to lose the profile against the pivot distance.
-MAX_DESIGN_RATIO = 1.0e4
+#: Largest accepted H/D and r_p: the range the engine is verified over (docs/model.md,
+#: "Range"). A seeded random probe of the built-in faces (scripts/evidence/range_probe.py)
+#: found no interpenetration, UNRESOLVED, mirror or symmetry-filling disagreement up to H/D 100
+#: (3000 runs at 10-100, 1538 at 50-100), and 24 in 16 of 1462 runs at 100-200 (issue 37's
+#: reproducers start at 102); 50 keeps a factor 2 below that. The paper's metric "plateaus"
+#: long before (Section IV-A).
+MAX_DESIGN_RATIO = 50.0
+
+#: Largest accepted vertex coordinate of a custom face (D): r_p + H of the largest built-in
+#: design, whose outlines reach that far from their pivots.
+MAX_CUSTOM_COORDINATE = 2.0 * MAX_DESIGN_RATIO
+
+#: Largest accepted mated distance L of a custom face (D): 2 r_p + H of the largest built-in.
+MAX_MATED_DISTANCE = 3.0 * MAX_DESIGN_RATIO
+
+#: Largest accepted width D (the caller's length unit): the width only scales poses in and
+#: out (the engine works in D), so it is not part of the verified range; 1e4 is far beyond any
+#: connector in metres or millimetres.
+MAX_WIDTH = 1.0e4
+
+#: Where the limits above come from, named in every refusal.
+_RANGE_WHY = "the range the engine is verified over; docs/model.md, Range"
 
 #: Shortest accepted polygon edge (D): a repeated vertex makes an edge without a direction.
 MIN_EDGE_LENGTH = 1e-9
 
 
-def _check_ratio(name: str, value: float, *, allow_zero: bool) -> float:
+def _check_ratio(
+    name: str, value: float, *, allow_zero: bool, limit: float = MAX_DESIGN_RATIO
+) -> float:
+    """``value`` as a float, refused unless finite, positive (or zero) and at most ``limit``."""
     value = float(value)
     if not math.isfinite(value):
         raise XfaceValueError(f"{name} must be finite, got {value!r}")
     if value < 0.0 or (value == 0.0 and not allow_zero):
         bound = ">= 0" if allow_zero else "> 0"
         raise XfaceValueError(f"{name} must be {bound}, got {value!r}")
-    if value > MAX_DESIGN_RATIO:
-        raise XfaceValueError(f"{name} must be <= {MAX_DESIGN_RATIO:g}, got {value!r}")
+    if value > limit:
+        why = "far beyond any connector" if limit == MAX_WIDTH else _RANGE_WHY
+        raise XfaceValueError(f"{name} must be <= {limit:g} ({why}), got {value!r}")
     return value
 
 
@@ -136,7 +159,7 @@ class FaceDesign:
 
     def with_width(self, width: float) -> FaceDesign:
         """The same design at another width D (lengths in the caller's unit)."""
-        width = _check_ratio("width", width, allow_zero=False)
+        width = _check_ratio("width", width, allow_zero=False, limit=MAX_WIDTH)
         return FaceDesign(
             kind=self.kind,
             h_over_d=self.h_over_d,
@@ -258,7 +281,7 @@ def _common(h_over_d: float, r_p: float, width: float) -> tuple[float, float, fl
     return (
         _check_ratio("h_over_d", h_over_d, allow_zero=False),
         _check_ratio("r_p", r_p, allow_zero=True),
-        _check_ratio("width", width, allow_zero=False),
+        _check_ratio("width", width, allow_zero=False, limit=MAX_WIDTH),
     )
 
 
@@ -373,7 +396,7 @@ def custom_face(
     ------
     GeometryError
         Layer counts differ, a polygon is not simple, has fewer than three vertices or a
-        coordinate beyond +-:data:`MAX_DESIGN_RATIO` D, the mated parts overlap, or
+        coordinate beyond +-:data:`MAX_CUSTOM_COORDINATE` D, the mated parts overlap, or
         ``mirror_symmetric`` is claimed for a design that is not.
 
     Examples
@@ -388,8 +411,8 @@ def custom_face(
     """
     if len(base_layers) != len(moving_layers) or not base_layers:
         raise GeometryError("base and moving parts need the same number (>= 1) of layers")
-    L = _check_ratio("mated_distance", mated_distance, allow_zero=False)
-    w = _check_ratio("width", width, allow_zero=False)
+    L = _check_ratio("mated_distance", mated_distance, allow_zero=False, limit=MAX_MATED_DISTANCE)
+    w = _check_ratio("width", width, allow_zero=False, limit=MAX_WIDTH)
     base = tuple(_validated_polygon(p, f"base layer {i}") for i, p in enumerate(base_layers))
     moving = tuple(_validated_polygon(p, f"moving layer {i}") for i, p in enumerate(moving_layers))
     n_pairs = sum(2 * len(b) * len(m) for b, m in zip(base, moving, strict=True))
@@ -437,11 +460,11 @@ def _validated_polygon(points: npt.ArrayLike, name: str) -> FloatArray:
         raise GeometryError(f"{name}: need an (n >= 3, 2) array of vertices, got {arr.shape}")
     if not np.all(np.isfinite(arr)):
         raise GeometryError(f"{name}: vertices must be finite")
-    if np.any(np.abs(arr) > MAX_DESIGN_RATIO):
-        # Far beyond any connector, and squared lengths in the engine overflow near 1e154.
+    if np.any(np.abs(arr) > MAX_CUSTOM_COORDINATE):
         raise GeometryError(
             f"{name}: a vertex coordinate of {float(np.abs(arr).max()):.3g} D is beyond "
-            f"+-{MAX_DESIGN_RATIO:g} D (MAX_DESIGN_RATIO)"
+            f"+-{MAX_CUSTOM_COORDINATE:g} D (MAX_CUSTOM_COORDINATE, r_p + H of the largest "
+            f"built-in design: {_RANGE_WHY})"
         )
     if arr.shape[0] > 3 and np.array_equal(arr[0], arr[-1]):
         # A closed ring (the first vertex repeated last) describes the same polygon.

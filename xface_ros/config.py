@@ -24,7 +24,7 @@ from typing import Any
 from xface_core.errors import XfaceError
 from xface_core.facefile import load_face
 from xface_core.frames import DEFAULT_MAX_DISTANCE_WIDTHS, DEFAULT_MAX_TILT_RAD
-from xface_core.geometry import FaceDesign, make_face
+from xface_core.geometry import MAX_DESIGN_RATIO, FaceDesign, make_face
 from xface_core.physics import Physics
 
 __all__ = [
@@ -93,13 +93,13 @@ SPECS: tuple[ParamSpec, ...] = (
         "h_over_d",
         0.25,
         "Profile height over width, H/D (dimensionless).",
-        float_range=(0.01, 100.0),
+        float_range=(0.01, MAX_DESIGN_RATIO),
     ),
     ParamSpec(
         "r_p",
         1.0,
         "Distance from each pivot to its profile's base line, in widths D.",
-        float_range=(0.0, 100.0),
+        float_range=(0.0, MAX_DESIGN_RATIO),
     ),
     ParamSpec(
         "damping_ratio",

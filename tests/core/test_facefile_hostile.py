@@ -22,7 +22,7 @@ from xface_core.facefile import (
     MAX_NUMBER_CHARS,
     MAX_YAML_VALUES,
 )
-from xface_core.geometry import MAX_DESIGN_RATIO, is_mirror_symmetric
+from xface_core.geometry import MAX_CUSTOM_COORDINATE, MAX_WIDTH, is_mirror_symmetric
 
 # An asymmetric single ramp with a step (scripts/evidence/golden_maps.py): not mirror-symmetric.
 LOPSIDED = xf.custom_face(
@@ -92,7 +92,7 @@ def test_deeply_nested_lists_are_refused_before_python_recursion(tmp_path: Path)
 def test_a_vertex_beyond_the_coordinate_bound_is_refused(tmp_path: Path) -> None:
     # Before: accepted, then predict raised ZeroDivisionError (squared lengths overflow).
     path = _file(tmp_path, X_TEXT.replace("[0.5, 2.25]", "[1.0e+200, 1.0e+154]", 1))
-    _refused(path, "base layer 0", f"beyond +-{MAX_DESIGN_RATIO:g} D")
+    _refused(path, "base layer 0", f"beyond +-{MAX_CUSTOM_COORDINATE:g} D")
 
 
 def test_a_character_device_is_refused_without_reading_it(tmp_path: Path) -> None:
@@ -304,7 +304,7 @@ def test_a_mutated_face_file_loads_a_valid_design_or_is_a_face_file_error(data: 
         assert "\n" not in refusal
         return
     for polygon in (*design.base_layers, *design.moving_layers):
-        assert abs(polygon).max() <= MAX_DESIGN_RATIO
-    assert 0.0 < design.width <= MAX_DESIGN_RATIO
+        assert abs(polygon).max() <= MAX_CUSTOM_COORDINATE
+    assert 0.0 < design.width <= MAX_WIDTH
     if design.mirror_symmetric:
         assert is_mirror_symmetric(design.base_layers, design.moving_layers)

@@ -133,7 +133,10 @@ def _check_design(h_over_d: float, r_p: float) -> tuple[float, float]:
         if v < 0.0 or (v == 0.0 and not allow_zero):
             raise XfaceValueError(f"{name} must be {'>= 0' if allow_zero else '> 0'}, got {v!r}")
         if v > MAX_DESIGN_RATIO:
-            raise XfaceValueError(f"{name} must be <= {MAX_DESIGN_RATIO:g}, got {v!r}")
+            raise XfaceValueError(
+                f"{name} must be <= {MAX_DESIGN_RATIO:g} (the range the engine is verified "
+                f"over; docs/model.md, Range), got {v!r}"
+            )
         values.append(v)
     return values[0], values[1]
 
@@ -227,7 +230,8 @@ def bound_map(
     ------
     XfaceValueError
         Unknown face or grid kind, even or too small ``n``, or a design parameter that is
-        NaN, infinite, negative (or zero for H/D) or above 1e4.
+        NaN, infinite, negative (or zero for H/D) or above
+        :data:`~xface_core.geometry.MAX_DESIGN_RATIO` (50).
 
     Examples
     --------

@@ -1,0 +1,175 @@
+"""Every reproducer of issue 37's range probe (``../shared/repro/engine_range.py``) as a test.
+
+Outside the verified range (H/D or r_p above :data:`~xface_core.geometry.MAX_DESIGN_RATIO`) the
+design is now refused with an error that states the limit; inside it each run must pass the
+issue's bar (no interpenetration beyond 1e-6 D along the path, no UNRESOLVED, a mirror-symmetric
+design's mirror pair equal, a map filled by symmetry equal to its simulation), checked by the
+probe's own code (scripts/evidence/range_probe.py). Reproducers inside the range that still fail
+are engine defects, marked ``xfail(strict=True)``: fixing the engine turns them into failures
+that say to drop the mark. The seeded probe itself runs small here, within the accepted range.
+"""
+
+from __future__ import annotations
+
+import importlib
+import json
+import math
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from xface_core import Outcome
+from xface_core.cli import main
+from xface_core.errors import XfaceValueError
+from xface_core.geometry import MAX_DESIGN_RATIO
+
+ROOT = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(ROOT / "scripts" / "evidence"))
+range_probe = importlib.import_module("range_probe")
+Run: Any = range_probe.Run
+
+ENGINE_DEFECT = "engine defect inside the verified range (issue 37): "
+
+#: Why each reproducer inside the range still fails, by its "defect" key in the data file.
+DEFECTS = {
+    "NEEDLES_0": (
+        "custom face (H/D about 3, damping ratio 1e4): two needle tips (0.99 and 1.23 degrees) in "
+        "contact while their flanks cross the base's outline 2.2e-4 D deep"
+    ),
+    "NEEDLE_1": (
+        "custom face (H/D about 3, default physics): a 0.79-degree needle tip of the base in "
+        "contact while its flanks cross the moving outline 3.9e-4 D deep"
+    ),
+    "FRICTION_MIRROR_7": (
+        "mirror-symmetric custom face with friction: the jam at (-x0, -theta0) stops at angles "
+        "0.03-0.09 rad from the mirror image of the jam at (x0, theta0) (exact with friction 0)"
+    ),
+    "LIGHT_BASE_9": (
+        "V 0.98/0 at damping ratio 1e-4 (UNRESOLVED up to 1e-3, seated from 1e-2) with friction "
+        "0.3-0.46: the event limit is reached"
+    ),
+    "FRICTION_MAP_880": (
+        "X 2.12/0.072 at damping ratio 1.3e-3 with friction 0.42: a 7 x 7 map filled by symmetry "
+        "has SEATED at cell (6, 2) where its own simulation ends BAD_MATE (a frictional jam not "
+        "mirror-equivariant)"
+    ),
+    "FRICTIONLESS_MIRROR_1676": (
+        "mirror-symmetric custom face (H/D 11.8, default physics): the two jams of a mirror pair "
+        "stop 1.35e-3 rad apart in phi_M"
+    ),
+    "OVERLAP_1781": (
+        "custom face (H/D 0.54, r_p 0, default physics): held on two contacts (a 79-degree base "
+        "corner, a 25-degree moving spike), the outlines cross with no vertex inside the other, "
+        "5.5e-5 D deep at the second contact and 5.0e-3 D at the jam 0.008 D of descent later"
+    ),
+    "OVERLAP_2903": (
+        "custom face (H/D 4.27, r_p 0, default physics): the parts interpenetrate 1.5e-3 D near "
+        "the end of the path (found by the probe, not analysed further)"
+    ),
+    "OVERLAP_3802": (
+        "custom face (H/D 0.86, damping ratio 6.5e-4, friction 0.97): the parts interpenetrate "
+        "0.29 D (found by the probe, not analysed further)"
+    ),
+    "FRICTIONLESS_MIRROR_310": (
+        "mirror-symmetric custom face (H/D 38, damping ratio 4.2e-4, no friction): the two jams "
+        "of a mirror pair stop 8.4e-4 rad apart"
+    ),
+    "FRICTION_MIRROR_1198": (
+        "mirror-symmetric custom face (H/D 2.6, damping ratio 1.8e-4, friction 1.34): the two "
+        "jams of a mirror pair stop 1.1e-2 rad apart"
+    ),
+}
+
+
+def _reproducers(group: str) -> list[Any]:
+    """The runs of ``range_reproducers.json`` in ``group`` ("refused": beyond the range, built-in
+    designs whose H/D is above 50; "inside": within it), engine defects marked xfail."""
+    params = []
+    for row in json.loads(DATA.read_text()):
+        if row["group"] != group:
+            continue
+        run = Run(**{k: math.inf if v == "inf" else v for k, v in row["run"].items()})
+        marks = []
+        if row["defect"]:
+            reason = ENGINE_DEFECT + DEFECTS[row["defect"]]
+            marks.append(pytest.mark.xfail(strict=True, reason=reason))
+        params.append(pytest.param(run, id=row["id"], marks=marks))
+    return params
+
+
+#: Each reproducer with where it was found: issue 37's engine_range.py (ids "N-class-kind"),
+#: then runs the probe found inside the range when run over the old one (seed 1 at 1b73aaf) and
+#: over the new one (seeds 2 and 4), ids "probe-N-class-kind".
+DATA = Path(__file__).with_name("range_reproducers.json")
+REFUSED = _reproducers("refused")
+INSIDE = _reproducers("inside")
+
+
+@pytest.mark.parametrize("run", REFUSED)
+def test_a_reproducer_beyond_the_verified_range_is_refused_with_its_limit(run: Any) -> None:
+    with pytest.raises(XfaceValueError, match=r"h_over_d must be <= 50 \(the range the engine"):
+        run.design()
+
+
+@pytest.mark.parametrize("run", INSIDE)
+def test_a_reproducer_inside_the_verified_range_passes_the_bar(run: Any) -> None:
+    assert range_probe.check_run(run) == []
+
+
+def test_the_seeded_probe_over_the_accepted_range_is_clean(tmp_path: Path) -> None:
+    """200 seeded runs over everything FaceDesign and Physics accept (the CI-sized probe)."""
+    out = tmp_path / "findings.json"
+    args = ["--runs", "200", "--seed", "37", "--timeout", "120", "--json", str(out)]
+    assert range_probe.main(args) == 0
+    assert json.loads(out.read_text()) == []
+
+
+def test_the_probe_exits_1_and_writes_each_finding_with_its_run(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The probe can fail: one run with a finding makes it exit 1 and write that run."""
+
+    def one_finding(run: Any) -> list[tuple[str, str]]:
+        return [("overlap", "planted")] if run.index == 1 else []
+
+    monkeypatch.setattr(range_probe, "check_run", one_finding)  # forked workers inherit it
+    out = tmp_path / "findings.json"
+    assert range_probe.main(["--runs", "3", "--seed", "0", "--json", str(out)]) == 1
+    (row,) = json.loads(out.read_text())
+    assert row["run"]["index"] == 1
+    assert row["findings"] == [["overlap", "planted"]]
+
+
+def test_the_overlap_depth_is_the_deepest_vertex_or_the_crossing_thickness() -> None:
+    square = np.array([(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)])
+    pushed_in = square / 2 + np.array([0.25, 0.9])  # two vertices 0.1 inside the square
+    assert range_probe.overlap_depth(square, pushed_in) == pytest.approx(0.1)
+    touching = square / 2 + np.array([0.25, 1.0])
+    assert range_probe.overlap_depth(square, touching) == 0.0
+    # A plus sign: no vertex of either bar inside the other, a 0.2 x 0.2 overlap.
+    bar = np.array([(-1.0, -0.1), (1.0, -0.1), (1.0, 0.1), (-1.0, 0.1)])
+    assert range_probe.overlap_depth(bar, bar[:, ::-1]) == pytest.approx(0.1, rel=0.02)
+
+
+def test_predict_answers_at_the_largest_accepted_design(capsys: pytest.CaptureFixture[str]) -> None:
+    limit = f"{MAX_DESIGN_RATIO:g}"
+    argv = ["predict", "--face", "X", "--h-over-d", limit, "--rp", limit]
+    assert main([*argv, "--x0", "0.5", "--theta0", "0.3", "--json"]) == 0
+    outcome = json.loads(capsys.readouterr().out)["outcome"]
+    assert outcome in {o.name for o in Outcome} - {"UNRESOLVED"}
+
+
+def test_predict_beyond_the_largest_accepted_design_is_refused_with_its_limit(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    argv = ["predict", "--face", "X", "--h-over-d", "10000", "--rp", "10000"]
+    assert main([*argv, "--x0", "0.5", "--theta0", "0.3"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    expected = (
+        "xface: error: h_over_d must be <= 50 (the range the engine is verified over; "
+        "docs/model.md, Range), got 10000.0"
+    )
+    assert err == [expected]
