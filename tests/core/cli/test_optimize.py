@@ -16,6 +16,7 @@ from xface_core.cli import main
 from xface_core.facefile import load_face
 
 SMALL = ["--grid", "7", "--budget", "12", "--popsize", "6", "--vertices", "2", "--workers", "1"]
+SMALL += ["--crosscheck-grid", "5"]
 
 
 @pytest.fixture(scope="module")
@@ -65,7 +66,8 @@ def test_the_summary_compares_with_the_x_face_and_the_engine(
     x_face, best, check = summary["x_face"], summary["best"], summary["crosscheck"]
     assert best["score"] >= x_face["score"]
     assert best["M"] == best["row"]["M"]
-    assert check["false_seated"] >= 0
+    assert check["grid"] == 5
+    assert check["unambiguous"] + check["ambiguous"] == 25
     assert 0.0 <= check["agreement"] <= 1.0
     assert summary["evaluations"] >= 12
 
@@ -89,12 +91,13 @@ def test_running_it_again_resumes_from_the_folder(
         (["--criterion", "seat_probability"], "needs --sigma-x and --sigma-theta"),
         (["--budget", "0"], "budget must be an integer"),
         (["--max-wall-deg", "5"], "would not contain the X-Face"),
+        (["--crosscheck-grid", "4"], "--crosscheck-grid must be an odd integer >= 3"),
     ],
 )
 def test_bad_input_is_one_line_and_exit_2(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], extra: list[str], words: str
 ) -> None:
-    code = main(["optimize", *SMALL, "--out", str(tmp_path / "o"), "--no-crosscheck", *extra])
+    code = main(["optimize", *SMALL, "--out", str(tmp_path / "o"), *extra])
     err = capsys.readouterr().err
     assert code == 2
     assert words in err
