@@ -12,7 +12,7 @@ from typing import Any
 
 import pytest
 
-from xface_core.study.executors import WorkerLost, execute
+from xface_core.study.executors import LocalPool, WorkerLost, execute
 
 
 def _die_on_first_call(marker: Path, job: int) -> int:
@@ -84,3 +84,31 @@ class _BrokenExecutor(Executor):
 def test_a_broken_executor_of_the_caller_is_not_restarted() -> None:
     with pytest.raises(WorkerLost, match="cannot be restarted"):
         execute(lambda j: j, [1, 2], lambda j, r: None, executor=_BrokenExecutor())
+
+
+def _worker_pid(job: int) -> int:
+    return os.getpid()
+
+
+def test_a_caller_s_local_pool_serves_calls_after_the_first_with_the_same_workers() -> None:
+    with LocalPool(2) as pool:
+        first: list[int] = []
+        execute(_worker_pid, list(range(8)), lambda _j, pid: first.append(pid), executor=pool)
+        again: list[int] = []
+        execute(_worker_pid, list(range(8)), lambda _j, pid: again.append(pid), executor=pool)
+    assert os.getpid() not in first
+    assert len(set(first) | set(again)) <= 2  # no new workers: the pool outlived the first call
+
+
+def test_a_caller_s_local_pool_replaces_a_worker_that_died(tmp_path: Path) -> None:
+    marker = tmp_path / "died"
+    results: list[int] = []
+    with LocalPool(2) as pool:
+        execute(
+            functools.partial(_die_on_first_call, marker),
+            [1, 2, 3],
+            lambda _j, r: results.append(r),
+            executor=pool,
+        )
+        execute(_worker_pid, [1], lambda _j, pid: results.append(pid), executor=pool)
+    assert sorted(results[:3]) == [2, 4, 6]
