@@ -227,7 +227,7 @@ class _Predictor(Node):
         )
 
     def _make_inputs(self) -> None:
-        """The pose subscription, the two services and the diagnostics timer."""
+        """The pose subscriptions, the services and the diagnostics timer."""
         pose_sub = self.create_subscription(
             PoseStamped,
             "relative_pose",
@@ -614,7 +614,7 @@ class XfaceLifecyclePredictor(LifecycleNodeMixin, _Predictor):
       minutes where it compiles, and a lifecycle manager waits on each transition before it
       brings up the next node; until it is over ``/diagnostics`` (once active) says "warming
       up" and the services answer only once the simulator is loaded;
-    * ``activate``: the pose subscription, both services and the diagnostics timer;
+    * ``activate``: the pose subscriptions, the services and the diagnostics timer;
     * ``deactivate``: those released again (no answers, no predictions);
     * ``cleanup`` / ``shutdown``: the worker stopped, the recording finished, all released.
     """
