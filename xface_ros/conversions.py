@@ -10,8 +10,10 @@ pivot frame (``base_frame``), as it was at the start of the prediction; lengths 
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
+import sys
+from collections.abc import Iterable, Sequence
 from dataclasses import replace
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -36,10 +38,27 @@ from xface_core.frames import (
     path_poses,
     yaw_to_quaternion,
 )
+from xface_core.geometry import FaceDesign
 from xface_core.result import Prediction
+from xface_ros.config import NodeConfig
 from xface_ros.decision import PoseInput, Predicted, Rejected, Verdict, answer
 
+# The typed interface (xface_msgs) is built after the pip install (scripts/build_msgs.py,
+# `make msgs`); without it the node runs without prediction/result and predict_dock.
+try:
+    from xface_msgs.msg import DockPrediction
+    from xface_msgs.srv import PredictDock
+except ImportError as exc:
+    DockPrediction = PredictDock = None
+    _XFACE_MSGS_IMPORT_ERROR: str | None = str(exc)
+else:
+    _XFACE_MSGS_IMPORT_ERROR = None
+
 __all__ = [
+    "DockPrediction",
+    "PredictDock",
+    "dock_prediction_msg",
+    "dock_query_input",
     "input_error_status",
     "key_value",
     "markers_msg",
@@ -53,6 +72,7 @@ __all__ = [
     "self_test_response",
     "stamp_to_ns",
     "status_name",
+    "typed_interface_problem",
     "verdict_status",
 ]
 
@@ -85,15 +105,27 @@ def pose_input(msg: PoseStamped) -> PoseInput:
     )
 
 
+def _x_yaw_block(c: Sequence[float]) -> tuple[float, float, float, float]:
+    """The (x, yaw) block of a 6 x 6 row-major pose covariance (indices 0, 5, 30, 35; x0 = x
+    and theta0 = yaw - pi, so it is the covariance of (x0, theta0))."""
+    return (float(c[0]), float(c[5]), float(c[30]), float(c[35]))
+
+
 def pose_with_covariance_input(msg: PoseWithCovarianceStamped) -> PoseInput:
     """The plain values of a pose with covariance: the pose, and the (x, yaw) block of its
-    6 x 6 row-major covariance (indices 0, 5, 30, 35; x0 = x and theta0 = yaw - pi, so it is
-    the covariance of (x0, theta0))."""
-    c = msg.pose.covariance
+    covariance (:func:`_x_yaw_block`)."""
     stamped = PoseStamped(header=msg.header, pose=msg.pose.pose)
-    return replace(
-        pose_input(stamped), covariance=(float(c[0]), float(c[5]), float(c[30]), float(c[35]))
-    )
+    return replace(pose_input(stamped), covariance=_x_yaw_block(msg.pose.covariance))
+
+
+def dock_query_input(request: Any) -> PoseInput:
+    """The start of a ``PredictDock`` request as plain values: the pose, and when
+    ``has_covariance`` the (x, yaw) block of ``covariance`` (laid out as
+    ``PoseWithCovariance``'s, read as the covariance subscription reads it)."""
+    start = pose_input(request.start)
+    if not request.has_covariance:
+        return start
+    return replace(start, covariance=_x_yaw_block(request.covariance))
 
 
 def planar_to_pose(pose: PlanarPose) -> Pose:
@@ -139,9 +171,7 @@ def prediction_status(predicted: Predicted, *, name: str, hardware_id: str) -> D
         level = DiagnosticStatus.OK
     else:
         level = DiagnosticStatus.WARN
-    message = f"{prediction.outcome.name}: {prediction.reason}"
-    if prediction.seated and not decision.accepted:
-        message += f" ({decision.why})"
+    message = f"{prediction.outcome.name}: {_reason(predicted)}"
     values = [
         key_value("outcome", prediction.outcome.name),
         key_value("outcome_code", int(prediction.outcome)),
@@ -170,16 +200,29 @@ def prediction_status(predicted: Predicted, *, name: str, hardware_id: str) -> D
     values += _final_values(predicted)
     values.append(key_value("compute_time_ms", predicted.compute_s * 1e3))
     values += _stamp_values(predicted.stamp_ns)
-    design = prediction.design
-    values += [
-        key_value("face", design.kind),
-        key_value("width_m", design.width),
-        key_value("h_over_d", design.h_over_d),
-        key_value("r_p", design.r_p),
-    ]
+    values += [key_value(key, value) for key, value in _design_summary(prediction.design)]
     return DiagnosticStatus(
         level=level, name=name, message=message, hardware_id=hardware_id, values=values
     )
+
+
+def _reason(predicted: Predicted) -> str:
+    """Why it ended so, and, when it seats but is not accepted, why not."""
+    prediction, decision = predicted.prediction, predicted.decision
+    if prediction.seated and not decision.accepted:
+        return f"{prediction.reason} ({decision.why})"
+    return prediction.reason
+
+
+def _design_summary(design: FaceDesign) -> list[tuple[str, str | float]]:
+    """The design a prediction used, by status key: kind, width D (m), H/D and r_p (NaN for
+    a custom face)."""
+    return [
+        ("face", design.kind),
+        ("width_m", design.width),
+        ("h_over_d", design.h_over_d),
+        ("r_p", design.r_p),
+    ]
 
 
 def _final_values(predicted: Predicted) -> list[KeyValue]:
@@ -224,6 +267,99 @@ def verdict_status(verdict: Verdict, *, name: str, hardware_id: str) -> Diagnost
     if isinstance(verdict, Rejected):
         return input_error_status(verdict, name=name, hardware_id=hardware_id)
     return prediction_status(verdict, name=name, hardware_id=hardware_id)
+
+
+def typed_interface_problem() -> str | None:
+    """Why the typed interface ``xface_msgs`` cannot be used here, with the command that
+    builds it; None when it can (its Python module imports and its type support loads)."""
+    if _XFACE_MSGS_IMPORT_ERROR is None:
+        try:  # a package built for another Python or ROS fails only here
+            for msg_type in (DockPrediction, PredictDock):
+                type(msg_type).__import_type_support__()
+            return None
+        except Exception as exc:
+            reason = f"{type(exc).__name__}: {exc}"
+    else:
+        reason = _XFACE_MSGS_IMPORT_ERROR
+    return (
+        f"the typed interface xface_msgs cannot be used ({reason}): no prediction/result "
+        f"topic and no predict_dock service; build it with "
+        f"`python scripts/build_msgs.py --prefix {sys.prefix}` (`make msgs` in a checkout)"
+    )
+
+
+def _nan_if_none(value: float | None) -> float:
+    return math.nan if value is None else float(value)
+
+
+def dock_prediction_msg(
+    verdict: Verdict,
+    header: Header,
+    config: NodeConfig,
+    *,
+    required_margin_m: float | None = None,
+    required_probability: float | None = None,
+) -> Any:
+    """The ``xface_msgs/DockPrediction`` of a verdict: the values of ``prediction/status``
+    (:func:`verdict_status`) as typed fields, NaN where nothing was computed.
+
+    ``header``: the pose's stamp and the base frame. A rejected input has outcome
+    ``INVALID_INPUT``, ``input_error`` its code, ``reason`` its detail, NaN start, margins
+    and compute time; its required margin and probability are ``required_margin_m`` and
+    ``required_probability`` (what the query asked) or else the node's ``min_margin`` and
+    ``min_seat_probability``, and its design the one ``config`` holds. A prediction carries
+    its decision's requirements (``config`` gives only a rejected input's design).
+    """
+    if isinstance(verdict, Rejected):
+        msg = DockPrediction(
+            header=header, outcome=int(Outcome.INVALID_INPUT),
+            outcome_name=Outcome.INVALID_INPUT.name, reason=verdict.detail,
+            input_error=verdict.code, accepted=False, seated=False, x0=math.nan,
+            theta0=math.nan, margin=math.nan, compute_time=math.nan,
+            required_margin=_first(required_margin_m, config.min_margin),
+            required_probability=_first(required_probability, config.min_seat_probability),
+            seat_probability=math.nan, suggested_dx=math.nan, suggested_dtheta=math.nan,
+        )  # fmt: skip
+        _set_margins(msg, None)
+        _set_design(msg, config.design)
+        return msg
+    prediction, decision = verdict.prediction, verdict.decision
+    dx, dtheta = (math.nan, math.nan) if decision.suggestion is None else decision.suggestion
+    msg = DockPrediction(
+        header=header, outcome=int(prediction.outcome), outcome_name=prediction.outcome.name,
+        reason=_reason(verdict), input_error="", accepted=decision.accepted,
+        seated=prediction.seated, x0=prediction.x0, theta0=prediction.theta0,
+        margin=_nan_if_none(decision.margin_m),
+        required_margin=decision.required_m, required_probability=decision.required_probability,
+        seat_probability=_nan_if_none(decision.seat_probability), suggested_dx=float(dx),
+        suggested_dtheta=float(dtheta), compute_time=verdict.compute_s,
+    )  # fmt: skip
+    _set_margins(msg, prediction)
+    _set_design(msg, prediction.design)
+    return msg
+
+
+def _first(value: float | None, default: float) -> float:
+    return float(default if value is None else value)
+
+
+def _set_margins(msg: Any, prediction: Prediction | None) -> None:
+    """The directional margins (m, rad) of a DockPrediction, NaN when not computed."""
+    m = None if prediction is None else prediction.margins
+    msg.margin_lateral_minus = math.nan if m is None else float(m.lateral_minus)
+    msg.margin_lateral_plus = math.nan if m is None else float(m.lateral_plus)
+    msg.margin_angle_minus = math.nan if m is None else float(m.angle_minus)
+    msg.margin_angle_plus = math.nan if m is None else float(m.angle_plus)
+
+
+def _set_design(msg: Any, design: FaceDesign) -> None:
+    """The design summary of a DockPrediction, from the status's (:func:`_design_summary`)."""
+    summary = dict(_design_summary(design))
+    msg.face_kind = str(summary["face"])
+    msg.face_name = design.display_name
+    msg.width = float(summary["width_m"])
+    msg.h_over_d = float(summary["h_over_d"])
+    msg.r_p = float(summary["r_p"])
 
 
 def self_test_response(

@@ -58,6 +58,7 @@ __all__ = [
     "combined_margin",
     "decide",
     "evaluate",
+    "evaluate_dock_query",
     "evaluate_query",
     "evaluate_streamed",
     "required_margin_m",
@@ -76,6 +77,8 @@ INPUT_ERRORS: dict[str, str] = {
     "not_facing": "|theta0| > pi/2: the faces do not face each other (yaw 0 is back to back)",
     "no_pose": "no pose has been received yet (service: empty start frame id)",
     "bad_tolerance": "the query's tolerance is negative or not finite",
+    "bad_required_margin": "the predict_dock request's required_margin is negative or not finite",
+    "bad_required_probability": "the predict_dock request's required_probability is not in [0, 1]",
     "bad_covariance": "the pose's (x, yaw) covariance is not finite, symmetric and positive "
     "semi-definite",
     "invalid_input": "the simulator refused the start (e.g. the parts interpenetrate)",
@@ -216,8 +219,11 @@ class Decision:
     seat_probability: float | None = None
     """P(seat) under the pose's covariance, None for an exact pose (or no atlas yet)."""
     suggestion: tuple[float, float] | None = None
-    """(dx m, dtheta rad) that brings P(seat) to ``min_seat_probability``, when not accepted
+    """(dx m, dtheta rad) that brings P(seat) to the required probability, when not accepted
     for want of it and a correction was found."""
+    required_probability: float = 0.0
+    """The P(seat) asked for of a pose with a covariance (``min_seat_probability``, or a
+    ``predict_dock`` request's); 0: none."""
 
 
 def decide(prediction: Prediction, *, required_margin_m: float) -> Decision:
@@ -270,10 +276,12 @@ def _with_probability(
     atlas: AcceptanceAtlas | None,
 ) -> Decision:
     """The decision with P(seat) under the pose's covariance (read from the atlas: without a
-    ready atlas it is not computed, since building one takes seconds) and, when
-    ``min_seat_probability`` asks for more, not accepted with a suggested correction."""
+    ready atlas it is not computed, since building one takes seconds) and, when the required
+    probability (``decision.required_probability``) asks for more, not accepted with a
+    suggested correction."""
+    level = decision.required_probability
     if atlas is None:
-        if config.min_seat_probability > 0.0 and decision.accepted:
+        if level > 0.0 and decision.accepted:
             why = "seat probability not available yet (the atlas is being built)"
             return replace(decision, accepted=False, why=why)
         return decision
@@ -284,7 +292,6 @@ def _with_probability(
         )
     )
     decision = replace(decision, seat_probability=p)
-    level = config.min_seat_probability
     if level <= 0.0 or p >= level:
         return decision
     suggestion = None
@@ -295,7 +302,8 @@ def _with_probability(
         )  # fmt: skip
         if s.reached:
             suggestion = (s.dx, s.dtheta)
-    why = f"seat probability {p:.3g} < min_seat_probability {level:.3g}"
+    asked = "min_seat_probability" if level == config.min_seat_probability else "required"
+    why = f"seat probability {p:.3g} < {asked} {level:.3g}"
     return replace(decision, accepted=False, why=why, suggestion=suggestion)
 
 
@@ -408,11 +416,14 @@ def evaluate(
     path: bool,
     margins: bool,
     atlas: AcceptanceAtlas | None = None,
+    required_probability: float | None = None,
 ) -> Verdict:
     """Check, simulate and decide one pose; never raises for a bad pose or a failed simulation.
 
     ``now_ns`` is the clock for the stamp check (None: no check), ``required_margin_m`` the
-    combined margin (m) a seat needs, ``path`` / ``margins`` what the simulation computes.
+    combined margin (m) a seat needs, ``path`` / ``margins`` what the simulation computes,
+    ``required_probability`` the P(seat) a pose with a covariance needs (None:
+    ``min_seat_probability``).
     """
     try:
         start = check_pose(pose, config, now_ns=now_ns)
@@ -428,7 +439,10 @@ def evaluate(
         return Rejected(pose.stamp_ns, "internal_error", repr(exc))
     if prediction.outcome is Outcome.INVALID_INPUT:
         return Rejected(pose.stamp_ns, "invalid_input", prediction.reason)
-    decision = decide(prediction, required_margin_m=required_margin_m)
+    level = config.min_seat_probability if required_probability is None else required_probability
+    decision = replace(
+        decide(prediction, required_margin_m=required_margin_m), required_probability=level
+    )
     if pose.covariance is not None:
         decision = _with_probability(decision, start, pose.covariance, config, atlas)
     return Predicted(pose.stamp_ns, start, prediction, decision, compute_s)
@@ -477,12 +491,74 @@ def evaluate_query(
             "bad_tolerance",
             f"tolerance {tolerance_m!r} m: a required margin is finite and >= 0 (0: min_margin)",
         )
+    return _evaluate_start(
+        requested, latest, config, tolerance_m=tolerance_m, now_ns=now_ns, atlas=atlas
+    )
+
+
+def evaluate_dock_query(
+    requested: PoseInput,
+    latest: PoseInput | None,
+    config: NodeConfig,
+    *,
+    required_margin: float,
+    required_probability: float,
+    now_ns: int,
+    atlas: AcceptanceAtlas | None = None,
+) -> Verdict:
+    """A ``predict_dock`` (PredictDock) query: as :func:`evaluate_query`, and a required P(seat).
+
+    ``required_margin`` (m) > 0 is the required combined margin, 0 uses ``min_margin``;
+    ``required_probability`` in (0, 1] the P(seat) a pose with a covariance needs, 0 uses
+    ``min_seat_probability``. A negative or non-finite margin is rejected
+    (``bad_required_margin``), a probability outside [0, 1] (``bad_required_probability``).
+    ``requested.covariance``, when given, also applies to the latest pose (empty frame id);
+    without one the latest pose keeps the covariance it came with, if any.
+    """
+    if not (math.isfinite(required_margin) and required_margin >= 0.0):
+        return Rejected(
+            requested.stamp_ns,
+            "bad_required_margin",
+            f"required_margin {required_margin!r} m: it is finite and >= 0 (0: min_margin)",
+        )
+    if not (math.isfinite(required_probability) and 0.0 <= required_probability <= 1.0):
+        return Rejected(
+            requested.stamp_ns,
+            "bad_required_probability",
+            f"required_probability {required_probability!r}: it is in [0, 1] "
+            "(0: min_seat_probability)",
+        )
+    return _evaluate_start(
+        requested,
+        latest,
+        config,
+        tolerance_m=required_margin,
+        now_ns=now_ns,
+        atlas=atlas,
+        required_probability=required_probability if required_probability > 0.0 else None,
+    )
+
+
+def _evaluate_start(
+    requested: PoseInput,
+    latest: PoseInput | None,
+    config: NodeConfig,
+    *,
+    tolerance_m: float,
+    now_ns: int,
+    atlas: AcceptanceAtlas | None,
+    required_probability: float | None = None,
+) -> Verdict:
+    """A query's verdict once its requirements are checked: the requested start or (empty
+    frame id) the latest streamed pose, always with a path."""
     check_now_ns: int | None = None
     pose = requested
     if not requested.frame_id:
         if latest is None:
             return Rejected(0, "no_pose", "no pose received yet")
         pose, check_now_ns = latest, now_ns
+        if requested.covariance is not None:
+            pose = replace(pose, covariance=requested.covariance)
     required = required_margin_m(tolerance_m, config)
     return evaluate(
         pose,
@@ -492,4 +568,5 @@ def evaluate_query(
         path=True,
         margins=config.need_margins or required > 0.0,
         atlas=atlas,
+        required_probability=required_probability,
     )

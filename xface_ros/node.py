@@ -1,7 +1,9 @@
 """The ``xface_predictor`` node: relative poses in, docking predictions out (the wiring).
 
 The node declares its parameters (:mod:`xface_ros.params`), creates its publishers, the pose
-subscription, the ``predict`` service and the diagnostics timer, and hands work on:
+subscriptions, the services (``predict``, ``predict_status``, and where ``xface_msgs`` is
+built the typed ``predict_dock`` with its ``prediction/result`` topic) and the diagnostics
+timer, and hands work on:
 
 * the two pose subscriptions are read by a :class:`~xface_ros.pose_reader.PoseReader` on a
   thread of their own, not by the executor (whose wait set costs 0.4 ms of Python a message);
@@ -9,8 +11,8 @@ subscription, the ``predict`` service and the diagnostics timer, and hands work 
   :class:`~xface_ros.worker.PredictionWorker` (its own thread: newest pose wins), which warms
   the simulator up first, decides each pose with :mod:`xface_ros.decision` and calls back
   :meth:`XfacePredictor._publish_verdict`;
-* the service decides its query in the executor thread with the same decision module (during
-  the warm-up it waits for the simulator to load, then answers);
+* the services decide their queries in the executor thread with the same decision module
+  (during the warm-up they wait for the simulator to load, then answer);
 * the timer formats the worker's stats with :mod:`xface_ros.diagnostics`.
 
 Neither node kind waits for the warm-up, which takes minutes where the simulator compiles: the
@@ -28,7 +30,7 @@ import re
 import sys
 import threading
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import rclpy
@@ -71,6 +73,10 @@ from xface_ros.config import (
     unknown_parameters_message,
 )
 from xface_ros.conversions import (
+    DockPrediction,
+    PredictDock,
+    dock_prediction_msg,
+    dock_query_input,
     markers_msg,
     ns_to_stamp,
     path_msg,
@@ -79,9 +85,16 @@ from xface_ros.conversions import (
     seated_pose_msg,
     self_test_response,
     status_name,
+    typed_interface_problem,
     verdict_status,
 )
-from xface_ros.decision import PoseInput, Rejected, Verdict, evaluate_query
+from xface_ros.decision import (
+    PoseInput,
+    Rejected,
+    Verdict,
+    evaluate_dock_query,
+    evaluate_query,
+)
 from xface_ros.diagnostics import diagnostic_array, predictor_status
 from xface_ros.params import (
     DESIGN_PARAMETERS,
@@ -168,6 +181,11 @@ class _Predictor(Node):
         self._recorder: Recorder | None = None
         self._worker: PredictionWorker | None = None
         self._pose_reader: PoseReader | None = None
+        self._result_pub: Any = None
+        # The typed interface (prediction/result, predict_dock) is optional: said once here.
+        self._typed_problem = typed_interface_problem()
+        if self._typed_problem is not None:
+            self.get_logger().warning(self._typed_problem)
 
     @property
     def _running_worker(self) -> PredictionWorker:
@@ -194,6 +212,8 @@ class _Predictor(Node):
         self._seated_pub = self._publisher(PoseStamped, "prediction/seated_pose", LATCHED_QOS)
         self._markers_pub = self._publisher(MarkerArray, "prediction/markers", BULK_QOS)
         self._diagnostics_pub = self._publisher(DiagnosticArray, "/diagnostics", RESULT_QOS)
+        if self._typed_problem is None:
+            self._result_pub = self._publisher(DockPrediction, "prediction/result", RESULT_QOS)
         self._recorder = Recorder.open(self.config, self.get_logger())
         self._worker = PredictionWorker(
             config=lambda: self.config,
@@ -207,7 +227,7 @@ class _Predictor(Node):
         )
 
     def _make_inputs(self) -> None:
-        """The pose subscription, the two services and the diagnostics timer."""
+        """The pose subscriptions, the services and the diagnostics timer."""
         pose_sub = self.create_subscription(
             PoseStamped,
             "relative_pose",
@@ -254,6 +274,15 @@ class _Predictor(Node):
             (status_service, self.destroy_service),
             (timer, self.destroy_timer),
         ]
+        if self._typed_problem is None:
+            # The typed answer: a DockPrediction and the path (docs/ros.md, predict_dock).
+            dock_service = self.create_service(
+                PredictDock,
+                "predict_dock",
+                self._on_predict_dock_request,
+                callback_group=MutuallyExclusiveCallbackGroup(),
+            )
+            self._inputs.append((dock_service, self.destroy_service))
         self.get_logger().info(
             f"predicting for the {self._describe(self.config)}; poses on "
             f"{pose_sub.topic_name} in frame {self.config.base_frame!r}"
@@ -394,6 +423,8 @@ class _Predictor(Node):
         self._status_pub.publish(
             verdict_status(verdict, name=self._status_name, hardware_id=config.base_frame)
         )
+        if self._result_pub is not None:
+            self._result_pub.publish(dock_prediction_msg(verdict, header, config))
         # Every verdict replaces the latched seat: a seat never outlives a later failure.
         self._seated_pub.publish(seated_pose_msg(verdict.seated_pose, header))
         if isinstance(verdict, Rejected):
@@ -418,39 +449,76 @@ class _Predictor(Node):
         ``goal`` is ignored: the goal is the seat.
         """
         config = self.config
-        verdict = self._query(pose_input(request.start), config, float(request.tolerance))
+        verdict = self._query(
+            evaluate_query, pose_input(request.start), config,
+            tolerance_m=float(request.tolerance),
+        )  # fmt: skip
+        response.plan = self._answer_path(verdict, config, "predict")
+        return response
+
+    def _on_predict_dock_request(self, request: Any, response: Any) -> Any:
+        """PredictDock: the start's ``DockPrediction`` and its path (empty unless accepted).
+
+        The start as for ``predict`` (an empty frame id: the latest streamed pose); with
+        ``has_covariance`` the (x, yaw) block of ``covariance`` gives the seat probability as
+        on ``relative_pose_with_covariance``. ``required_margin`` (m) and
+        ``required_probability`` 0 use ``min_margin`` and ``min_seat_probability``; a negative
+        or non-finite one is answered as refused (``bad_required_margin``,
+        ``bad_required_probability``).
+        """
+        config = self.config
+        required_margin = float(request.required_margin)
+        required_probability = float(request.required_probability)
+        verdict = self._query(
+            evaluate_dock_query, dock_query_input(request), config,
+            required_margin=required_margin, required_probability=required_probability,
+        )  # fmt: skip
+        header = Header(stamp=ns_to_stamp(verdict.stamp_ns), frame_id=config.base_frame)
+        response.prediction = dock_prediction_msg(
+            verdict, header, config,
+            required_margin_m=required_margin or config.min_margin,
+            required_probability=required_probability or config.min_seat_probability,
+        )  # fmt: skip
+        response.path = self._answer_path(verdict, config, "predict_dock")
+        return response
+
+    def _answer_path(self, verdict: Verdict, config: NodeConfig, service: str) -> Path:
+        """A query's path (empty unless accepted), and the query logged (throttled)."""
         if isinstance(verdict, Rejected):
-            response.plan = Path(header=Header(frame_id=config.base_frame))
             self.get_logger().warning(
-                f"predict: empty plan, {verdict.code}: {verdict.detail}",
+                f"{service}: empty plan, {verdict.code}: {verdict.detail}",
                 throttle_duration_sec=LOG_THROTTLE_S,
             )
-            return response
+            return Path(header=Header(frame_id=config.base_frame))
         header = Header(stamp=ns_to_stamp(verdict.stamp_ns), frame_id=config.base_frame)
-        response.plan = (
-            path_msg(verdict.prediction, header, max_poses=config.max_path_poses)
-            if verdict.accepted
-            else Path(header=header)
-        )
         self.get_logger().info(
-            f"predict: x0={verdict.start.x0:.4g} m theta0={verdict.start.theta0:.4g} rad -> "
+            f"{service}: x0={verdict.start.x0:.4g} m theta0={verdict.start.theta0:.4g} rad -> "
             f"{verdict.prediction.outcome.name}, "
             f"{'accepted' if verdict.accepted else 'rejected'} ({verdict.decision.why})",
             throttle_duration_sec=1.0,
         )
-        return response
+        if not verdict.accepted:
+            return Path(header=header)
+        return path_msg(verdict.prediction, header, max_poses=config.max_path_poses)
 
-    def _query(self, start: PoseInput, config: NodeConfig, tolerance_m: float) -> Verdict:
-        """A counted planner query: ``start`` (empty frame: the latest pose) against ``config``."""
+    def _query(
+        self,
+        evaluate: Callable[..., Verdict],
+        start: PoseInput,
+        config: NodeConfig,
+        **required: float,
+    ) -> Verdict:
+        """A counted planner query: ``start`` (empty frame: the latest pose) against ``config``,
+        with ``evaluate``'s requirements (:mod:`xface_ros.decision`)."""
         self._running_worker.stats.count_service_call()
         worker = self._running_worker
-        return evaluate_query(
+        return evaluate(
             start,
             worker.latest_pose,
             config,
-            tolerance_m=tolerance_m,
             now_ns=self._now_ns(),
             atlas=worker.current_atlas(config),
+            **required,
         )
 
     def _on_status_request(
@@ -463,7 +531,7 @@ class _Predictor(Node):
         will_not_seat, seats_without_margin, seats); ``passed`` is 1 when accepted.
         """
         config = self.config
-        verdict = self._query(_LATEST, config, 0.0)
+        verdict = self._query(evaluate_query, _LATEST, config, tolerance_m=0.0)
         return self_test_response(
             verdict,
             node_fqn=self.get_fully_qualified_name(),
@@ -546,7 +614,7 @@ class XfaceLifecyclePredictor(LifecycleNodeMixin, _Predictor):
       minutes where it compiles, and a lifecycle manager waits on each transition before it
       brings up the next node; until it is over ``/diagnostics`` (once active) says "warming
       up" and the services answer only once the simulator is loaded;
-    * ``activate``: the pose subscription, both services and the diagnostics timer;
+    * ``activate``: the pose subscriptions, the services and the diagnostics timer;
     * ``deactivate``: those released again (no answers, no predictions);
     * ``cleanup`` / ``shutdown``: the worker stopped, the recording finished, all released.
     """

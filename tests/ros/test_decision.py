@@ -43,6 +43,7 @@ from xface_ros.decision import (
     combined_margin,
     decide,
     evaluate,
+    evaluate_dock_query,
     evaluate_query,
     evaluate_streamed,
     required_margin_m,
@@ -215,6 +216,58 @@ def test_query_with_a_bad_tolerance_is_rejected(config: NodeConfig, tolerance_m:
     assert isinstance(verdict, Rejected)
     assert verdict.code == "bad_tolerance"
     assert repr(tolerance_m) in verdict.detail
+
+
+@pytest.mark.parametrize(
+    ("margin", "probability", "code"),
+    [
+        (-0.001, 0.0, "bad_required_margin"),
+        (math.nan, 0.0, "bad_required_margin"),
+        (math.inf, 0.0, "bad_required_margin"),
+        (0.0, -0.1, "bad_required_probability"),
+        (0.0, 1.5, "bad_required_probability"),
+        (0.0, math.nan, "bad_required_probability"),
+    ],
+)
+def test_dock_query_with_a_bad_requirement_is_rejected(
+    config: NodeConfig, margin: float, probability: float, code: str
+) -> None:
+    verdict = evaluate_dock_query(
+        at_start(0.0, 0.0), None, config, required_margin=margin,
+        required_probability=probability, now_ns=NOW_NS,
+    )  # fmt: skip
+    assert isinstance(verdict, Rejected)
+    assert verdict.code == code
+    assert code in INPUT_ERRORS
+
+
+def test_dock_query_requirements_replace_the_node_minimums_only_when_positive(
+    config: NodeConfig,
+) -> None:
+    strict = replace(config, min_margin=0.003, min_seat_probability=0.7)
+    for asked, margin, probability in [((0.0, 0.0), 0.003, 0.7), ((0.002, 0.9), 0.002, 0.9)]:
+        verdict = evaluate_dock_query(
+            at_start(0.0, 0.0), None, strict, required_margin=asked[0],
+            required_probability=asked[1], now_ns=NOW_NS,
+        )  # fmt: skip
+        assert isinstance(verdict, Predicted)
+        assert verdict.decision.required_m == margin
+        assert verdict.decision.required_probability == probability
+
+
+def test_dock_query_covariance_applies_to_the_latest_pose(config: NodeConfig) -> None:
+    # Without an atlas the probability is not computed, so a required one is not met: the
+    # request's covariance reached the latest pose (which had none) if it is refused.
+    latest = at_start(0.0, 0.0)
+    requested = replace(pose(frame=""), covariance=(1e-6, 0.0, 0.0, 1e-4))
+    kwargs: dict[str, Any] = {"required_margin": 0.0, "now_ns": NOW_NS}
+    exact = evaluate_dock_query(pose(frame=""), latest, config, required_probability=0.9, **kwargs)
+    assert exact.accepted
+    uncertain = evaluate_dock_query(requested, latest, config, required_probability=0.9, **kwargs)
+    assert isinstance(uncertain, Predicted)
+    assert uncertain.prediction.seated
+    assert not uncertain.accepted
+    assert "seat probability not available" in uncertain.decision.why
 
 
 # --- verdicts -------------------------------------------------------------------------------

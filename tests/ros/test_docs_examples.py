@@ -10,6 +10,8 @@ from typing import Any
 
 import pytest
 
+from xface_core.codes import Outcome
+from xface_ros.conversions import typed_interface_problem
 from xface_ros.decision import ANSWERS
 
 pytestmark = pytest.mark.ros
@@ -31,13 +33,19 @@ def test_examples_print_a_prediction_a_plan_and_its_reason(launch: Any) -> None:
     # under test here, not the staleness rule (tests/ros/test_decision.py).
     running = launch(wait=False, input_timeout_s=30.0)
     blocks = example_blocks()
-    assert len(blocks) == 2
+    assert len(blocks) == 3
+    typed = typed_interface_problem() is None  # the last example needs xface_msgs
     run = subprocess.run(
-        [sys.executable, "-c", "\n".join(blocks)],
+        [sys.executable, "-c", "\n".join(blocks if typed else blocks[:2])],
         env=running.env(), capture_output=True, text=True, timeout=600, check=False,
     )  # fmt: skip
     assert run.returncode == 0, run.stdout + run.stderr + running.node.log()
-    first, plan, why = run.stdout.strip().splitlines()[-3:]
+    lines = run.stdout.strip().splitlines()
+    first, plan, why = lines[-4:-1] if typed else lines[-3:]
     assert first.startswith("b'\\x00' SEATED: ")
     assert plan in ("accepted", "rejected")
     assert why.split()[0] in ANSWERS
+    if typed:  # the typed answer to the question the plan answered
+        outcome, accepted = lines[-1].split()[:2]
+        assert outcome in Outcome.__members__
+        assert accepted == ("True" if plan == "accepted" else "False")

@@ -8,6 +8,8 @@ from typing import Any
 
 import pytest
 
+from xface_ros.conversions import typed_interface_problem
+
 #: The node's default name (xface_ros.node).
 NODE_NAME = "xface_predictor"
 
@@ -29,6 +31,10 @@ SERVES = {
     "/predict": "nav_msgs/srv/GetPlan",
     "/predict_status": "diagnostic_msgs/srv/SelfTest",
 }
+#: The typed interface, where xface_msgs is built (docs/ros.md, "The typed interface").
+if typed_interface_problem() is None:
+    PUBLISHES["/prediction/result"] = "xface_msgs/msg/DockPrediction"
+    SERVES["/predict_dock"] = "xface_msgs/srv/PredictDock"
 
 
 def _graph(client: Any, query: str) -> dict[str, str]:

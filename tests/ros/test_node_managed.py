@@ -83,16 +83,27 @@ def test_goes_through_every_transition_with_the_standard_services(
 
 
 def test_answers_only_while_active(managed: tuple[Any, Manager]) -> None:
+    from xface_msgs.msg import DockPrediction
+    from xface_msgs.srv import PredictDock
+
     running, manager = managed
     c = running.client
+    dock = c.node.create_client(PredictDock, "predict_dock")
+    results = c._inbox(DockPrediction, "prediction/result", 10)
     assert manager.transition(Transition.TRANSITION_CONFIGURE)
     # Configured but inactive: no service to call, no prediction for a streamed pose.
     assert not c.status_client.service_is_ready()
+    assert not dock.service_is_ready()
     assert manager.transition(Transition.TRANSITION_ACTIVATE)
     c.wait_for_node(running.node)  # configure started the warm-up and did not wait for it
     assert c.call_status().status[0].message.startswith("INVALID_INPUT: no_pose")
-    _sent, status = c.publish_until_status(lambda: c.pose_msg(0.0, 3 * WIDTH, math.pi))
+    sent, status = c.publish_until_status(lambda: c.pose_msg(0.0, 3 * WIDTH, math.pi))
     assert status.message.startswith("SEATED: ")
+    # The typed result's publisher is a lifecycle publisher too: active now.
+    sent_ns = c.stamp_ns(sent.header.stamp)
+    assert results.wait_for(lambda r: c.stamp_ns(r.header.stamp) == sent_ns).seated
+    wait_until(dock.service_is_ready)
     assert manager.transition(Transition.TRANSITION_DEACTIVATE)
     wait_until(lambda: not c.status_client.service_is_ready())
+    wait_until(lambda: not dock.service_is_ready())
     wait_until(lambda: c.pose_pub.get_subscription_count() == 0)
