@@ -54,10 +54,15 @@ $(STAMP): pyproject.toml | $(BIN)/python
 # With the ROS extra, the typed interfaces xface_msgs are built from the ROS wheels' rosidl
 # generators and a C compiler into .venv (scripts/build_msgs.py; about 15 s the first time, under
 # a second when nothing changed: it keeps a fingerprint of its sources).
-MSGS := $(if $(findstring ros,$(EXTRAS)),msgs,)
+MSGS_STAMP := $(VENV)/.xface-msgs
+MSGS := $(if $(findstring ros,$(EXTRAS)),$(MSGS_STAMP),)
+MSGS_SOURCES := $(wildcard xface_ros/xface_msgs/package.xml xface_ros/xface_msgs/msg/*.msg xface_ros/xface_msgs/srv/*.srv)
 
-msgs: $(STAMP) ## build the ROS interfaces xface_msgs into .venv (with the ros extra)
+$(MSGS_STAMP): $(STAMP) scripts/build_msgs.py $(MSGS_SOURCES)
 	$(BIN)/python scripts/build_msgs.py --prefix $(VENV) --build-dir build/xface_msgs
+	@touch $@
+
+msgs: $(MSGS_STAMP) ## build the ROS interfaces xface_msgs into .venv (with the ros extra)
 
 setup: $(STAMP) $(MSGS) ## create .venv/ and install xface with the extras in EXTRAS (default ros,test)
 

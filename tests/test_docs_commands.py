@@ -252,10 +252,14 @@ def scratch_copy(dest: Path) -> Path:
         shutil.copy2(ROOT / rel, dest / rel)
     venv = dest / ".venv"
     venv.mkdir()
+    # The set-up's stamps, made here rather than linked: make sees this virtualenv set up (the
+    # install and the interfaces built) and neither installs nor builds into the shared one.
+    stamps = (".xface-installed", ".xface-msgs")
     for entry in _venv().iterdir():
-        if entry.name != ".xface-installed":
+        if entry.name not in stamps:
             (venv / entry.name).symlink_to(entry)
-    (venv / ".xface-installed").touch()
+    for stamp in stamps:
+        (venv / stamp).touch()
     return dest
 
 
