@@ -52,6 +52,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("folders", nargs="+", type=Path, help="xface optimize --out folders")
     args = parser.parse_args(argv)
     for folder in args.folders:
+        if not (folder / "summary.json").is_file() or not (folder / "best.yaml").is_file():
+            print(f"{folder}: no summary.json and best.yaml: not a finished xface optimize folder")
+            return 2
         for line in check(folder):
             print(line)
     return 0
