@@ -14,7 +14,7 @@ import pyarrow.parquet as pq
 import pytest
 
 import xface_core as xf
-from xface_core.study.executors import _LocalPool
+from xface_core.study.executors import LocalPool
 from xface_core.study.noise import PoseNoise
 from xface_core.study.run import StudyProgress, read_study, run_study
 from xface_core.study.space import DesignPoint, DesignSpace
@@ -140,13 +140,13 @@ def test_a_worker_that_dies_has_its_designs_retried(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     restarts: list[int] = []
-    restart = _LocalPool.restart
+    restart = LocalPool.restart
 
-    def counted(pool: _LocalPool) -> None:
+    def counted(pool: LocalPool) -> None:
         restarts.append(1)
         restart(pool)
 
-    monkeypatch.setattr(_LocalPool, "restart", counted)
+    monkeypatch.setattr(LocalPool, "restart", counted)
     killed: list[int] = []
 
     def kill_a_worker(p: StudyProgress) -> None:
