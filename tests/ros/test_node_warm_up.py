@@ -200,11 +200,11 @@ def test_the_outputs_add_no_qos_event_handlers_to_the_executors_wait(
     held_node: tuple[threading.Event, XfacePredictor],
 ) -> None:
     """The executor adds every QoS-event handler to its wait set for every message it takes
-    (docs/ros.md, "CPU per thread"): the six outputs have none, the pose inputs keep rclpy's
-    default warnings and the stream's message-lost count."""
+    (docs/ros.md, "CPU per thread"): the seven outputs (with the typed prediction/result) have
+    none, the pose inputs keep rclpy's default warnings and the stream's message-lost count."""
     node = held_node[1]
     outputs = {p.topic_name: len(p.event_handlers) for p in node._publishers_made}
-    assert len(outputs) == 6
+    assert len(outputs) == 7
     assert set(outputs.values()) == {0}
     inputs = {s.topic_name: len(s.event_handlers) for s in node.subscriptions}
     assert inputs["/relative_pose"] > inputs["/relative_pose_with_covariance"] > 0

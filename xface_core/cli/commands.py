@@ -1309,8 +1309,13 @@ def _run(argv: Sequence[str] | None) -> int:
         _say(f"xface: {exc.args[0]} needs the viz extra: {_VIZ_HINT}")
         return 2
     except _CrosscheckMissing:
-        what = "crosscheck" if args.command == "crosscheck" else "optimize's cross-check"
-        _say(f"xface: {what} needs the crosscheck extra: {_CROSSCHECK_HINT} (or --no-crosscheck)")
+        if args.command == "crosscheck":
+            _say(f"xface: crosscheck needs the crosscheck extra: {_CROSSCHECK_HINT}")
+        else:
+            _say(
+                f"xface: optimize's cross-check needs the crosscheck extra: {_CROSSCHECK_HINT} "
+                "(or --no-crosscheck)"
+            )
         return 2
     except XfaceError as exc:  # a FaceFileError quoting YAML's report too: one line
         _say(f"xface: error: {_one_line(str(exc))}")
