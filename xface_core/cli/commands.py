@@ -65,7 +65,7 @@ from xface_core.runner import engine_is_cached, xface_version
 
 from .optimize import add_optimize_command
 from .progress import ProgressBar, terminal_progress
-from .study import EXIT_INTERRUPTED, add_study_commands, atomic_output
+from .study import EXIT_INTERRUPTED, add_study_commands, atomic_output, json_default
 
 __all__ = ["main"]
 
@@ -353,7 +353,7 @@ def _cmd_predict(args: argparse.Namespace) -> int:
     if pred.outcome is Outcome.INVALID_INPUT:
         # Nothing was simulated: no margins, and the exit code says the input was refused.
         if args.json:
-            print(json.dumps(_prediction_json(pred), default=_json_default))
+            print(json.dumps(_prediction_json(pred), default=json_default))
         print(f"xface: {Outcome.INVALID_INPUT.name}: {pred.reason}", file=sys.stderr)
         return 2
     if not args.no_margins:
@@ -371,7 +371,7 @@ def _cmd_predict(args: argparse.Namespace) -> int:
         out = _prediction_json(pred)
         if uncertainty is not None:
             out["uncertainty"] = uncertainty
-        print(json.dumps(out, default=_json_default))
+        print(json.dumps(out, default=json_default))
         return 0
     print(_design_label(design))
     units = _units_line(design)
@@ -473,14 +473,6 @@ def _phase_name(code: int) -> str:
     from xface_core.result import Phase
 
     return Phase(int(code)).name.lower()
-
-
-def _json_default(o: object) -> object:
-    if isinstance(o, float | np.floating) and not math.isfinite(float(o)):
-        return str(float(o))
-    if isinstance(o, np.integer | np.floating):
-        return o.item()
-    raise TypeError(f"not serialisable: {type(o)}")
 
 
 def _map_json(amap: AcceptanceMap) -> dict[str, Any]:
@@ -827,7 +819,7 @@ def _cmd_crosscheck(args: argparse.Namespace) -> int:
         progress=None if args.quiet else stderr_progress,
     )
     if args.json:
-        print(json.dumps(result_json(result), default=_json_default))
+        print(json.dumps(result_json(result), default=json_default))
         return 0
     for line in _crosscheck_lines(result):
         print(line)

@@ -50,6 +50,7 @@ from .study import (
     _sigterm_interrupts,
     _warnings_as_lines,
     atomic_output,
+    json_default,
 )
 
 __all__ = ["add_optimize_command"]
@@ -204,7 +205,7 @@ def _crosscheck(
     )
     target = folder / "crosscheck.json"
     with atomic_output(target, "the cross-check") as aside:
-        Path(aside).write_text(json.dumps(result_json(result), default=_finite) + "\n")
+        Path(aside).write_text(json.dumps(result_json(result), default=json_default) + "\n")
     m_xface, m_engine, m_rounded = result.m_values()
     return {
         "file": str(target),
@@ -219,14 +220,6 @@ def _crosscheck(
         "M_engine_rounded": m_rounded,
         "seconds": result.seconds,
     }
-
-
-def _finite(o: object) -> object:
-    import numpy as np
-
-    if isinstance(o, np.generic):
-        return o.item()
-    raise TypeError(f"{type(o).__name__} is not JSON")
 
 
 def _summary(

@@ -26,6 +26,8 @@ from functools import partial
 from pathlib import Path
 from typing import Any, TextIO
 
+import numpy as np
+
 from xface_core.errors import XfaceValueError, XfaceWarning
 from xface_core.facefile import load_face
 from xface_core.maps.grids import PAPER_GRID_SIZE
@@ -44,7 +46,7 @@ from xface_core.study.space import DesignSpace, FileFace, parse_face_list, parse
 
 from . import progress
 
-__all__ = ["add_study_commands", "atomic_output"]
+__all__ = ["add_study_commands", "atomic_output", "json_default"]
 
 #: Exit code of a run stopped by SIGINT or SIGTERM (128 + SIGINT, the shell's convention).
 EXIT_INTERRUPTED = 130
@@ -149,6 +151,16 @@ def atomic_output(path: str | Path, what: str) -> Iterator[str]:
         with suppress(OSError):
             aside.unlink()
         raise
+
+
+def json_default(o: object) -> object:
+    """``json.dumps``'s ``default`` for the commands' outputs: numpy numbers as Python ones,
+    a non-finite float as its text (``"nan"``, ``"inf"``: JSON has no number for them)."""
+    if isinstance(o, float | np.floating) and not math.isfinite(float(o)):
+        return str(float(o))
+    if isinstance(o, np.integer | np.floating):
+        return o.item()
+    raise TypeError(f"not serialisable: {type(o)}")
 
 
 def _check_grid(grid: int) -> None:

@@ -63,13 +63,12 @@ import numpy.typing as npt
 
 from xface_core.errors import XfaceValueError, is_integer_in
 from xface_core.geometry import FaceDesign, custom_face, x_face
-from xface_core.maps.acceptance import acceptance_map
-from xface_core.maps.grids import MAX_GRID_SIZE, ThetaGridKind, theta_grid
+from xface_core.maps.grids import ThetaGridKind
 from xface_core.physics import DEFAULT_SETTINGS, Physics, SolverSettings
 
 from .executors import ClientLike, LocalPool, execute
 from .noise import PoseNoise
-from .run import DesignJob, evaluate_design
+from .run import DesignJob, check_study_grid, evaluate_design, load_engine_before_fork
 from .search import CRITERIA, Criterion
 from .space import DesignPoint, face_digest
 from .table import StudyFile, study_settings
@@ -176,12 +175,19 @@ class ProfileFamily:
 
     @property
     def dimension(self) -> int:
-        """Numbers per point of the search space: K x positions and K + 1 slopes."""
+        """Numbers per point of the search space: K x positions and K + 1 heights."""
         return 2 * self.vertices + 1
 
     @property
     def _max_slope(self) -> float:
         return math.tan(math.radians(self.max_wall_deg))
+
+    def _vertex_x(self, sorted_u: FloatArray) -> FloatArray:
+        """The free vertices' x (D) for their sorted numbers in [0, 1]: every edge spans at
+        least ``min_feature``, the rest of the half width is shared out by the numbers."""
+        k, g = self.vertices, self.min_feature
+        free = 0.5 - (k + 1) * g  # the half width left once every edge has its minimum span
+        return -0.5 + g * np.arange(1, k + 1) + free * sorted_u
 
     def profile(self, point: npt.ArrayLike) -> FloatArray:
         """The first layer's profile (D, body frame, left to right) at a point of the unit
@@ -191,10 +197,8 @@ class ProfileFamily:
             raise XfaceValueError(
                 f"a point of this family has {self.dimension} numbers, got {u.shape}"
             )
-        k, g = self.vertices, self.min_feature
-        free = 0.5 - (k + 1) * g  # the half width left once every edge has its minimum span
-        x = -0.5 + g * np.arange(1, k + 1) + free * np.sort(u[:k])
-        xs = np.concatenate(([-0.5], x, [0.0]))
+        k = self.vertices
+        xs = np.concatenate(([-0.5], self._vertex_x(np.sort(u[:k])), [0.0]))
         wanted = self.r_p + self.h_over_d * u[k:]  # heights within the bound
         steepest = self._max_slope
         mid = self.r_p + 0.5 * self.h_over_d
@@ -227,8 +231,7 @@ class ProfileFamily:
         """The point of the unit box whose face is the X-Face (evenly spread vertices on its
         ramp; with ``layers=1``, one ramp layer alone)."""
         spread = np.arange(1, self.vertices + 1) / (self.vertices + 1)
-        free = 0.5 - (self.vertices + 1) * self.min_feature
-        x = -0.5 + self.min_feature * np.arange(1, self.vertices + 1) + free * spread
+        x = self._vertex_x(spread)
         return np.concatenate((spread, [0.0], x + 0.5))  # heights on the ramp, in H
 
     def as_dict(self) -> dict[str, float | int]:
@@ -498,7 +501,7 @@ def _workers(
     if executor is not None or n <= 1:
         yield executor
         return
-    acceptance_map(x_face(1.0, 1.0), grid=3, threads=1)  # the engine, loaded before the fork
+    load_engine_before_fork()
     with LocalPool(n) as pool:
         yield pool
 
@@ -528,9 +531,7 @@ def _check_search(
         raise XfaceValueError(
             "the seat_probability criterion needs a pose noise (sigma_x, sigma_theta)"
         )
-    theta_grid(grid, theta_kind)
-    if grid > MAX_GRID_SIZE:
-        raise XfaceValueError(f"grid must be <= {MAX_GRID_SIZE} nodes per axis, got {grid}")
+    check_study_grid(grid, theta_kind)
     if not is_integer_in(budget, 1, MAX_BUDGET):
         raise XfaceValueError(
             f"budget must be an integer in [1, {MAX_BUDGET}] evaluations, got {budget!r}"

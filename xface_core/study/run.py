@@ -76,6 +76,20 @@ class DesignJob:
         return "design " + ", ".join(f"{k}={v}" for k, v in self.point._asdict().items())
 
 
+def check_study_grid(grid: int, theta_kind: ThetaGridKind) -> None:
+    """Refuse a pose grid a study cannot run: a bad size or kind, or above
+    :data:`MAX_STUDY_GRID` nodes per axis (:class:`XfaceValueError`)."""
+    theta_grid(grid, theta_kind)  # validates the grid size and kind
+    if grid > MAX_STUDY_GRID:
+        raise XfaceValueError(f"grid must be <= {MAX_STUDY_GRID} nodes per axis, got {grid}")
+
+
+def load_engine_before_fork() -> None:
+    """Load the compiled engine in this process, so that local workers forked after it start
+    with it instead of each loading it again."""
+    acceptance_map(x_face(1.0, 1.0), grid=3, threads=1)
+
+
 def evaluate_design(job: DesignJob) -> dict[str, Any]:
     """The table row of one design: its key, M, outcome counts, regions and time (s).
 
@@ -189,9 +203,7 @@ def run_study(
     >>> list(zip(table["face"].to_pylist(), table["r_p"].to_pylist(), table["M"].to_pylist()))
     [('V', 1.0, 3), ('V', 2.0, 3), ('X', 1.0, 11), ('X', 2.0, 5)]
     """
-    theta_grid(grid, theta_kind)  # validates the grid size and kind
-    if grid > MAX_STUDY_GRID:
-        raise XfaceValueError(f"grid must be <= {MAX_STUDY_GRID} nodes per axis, got {grid}")
+    check_study_grid(grid, theta_kind)
     if workers is not None and not 1 <= workers <= MAX_LOCAL_WORKERS:
         raise XfaceValueError(f"workers must be in [1, {MAX_LOCAL_WORKERS}], got {workers}")
     points = space.points()
@@ -218,8 +230,7 @@ def run_study(
         if progress is not None:
             progress(StudyProgress(0, len(jobs), skipped, 0.0))
         if jobs and executor is None and workers != 1:
-            # Load the compiled engine once here, so that forked workers start with it.
-            acceptance_map(x_face(1.0, 1.0), grid=3, threads=1)
+            load_engine_before_fork()
         execute(evaluate_design, jobs, write, executor=executor, workers=workers)
         study.compact()
         return StudyRun(str(study.path), done, skipped, time.monotonic() - start)
