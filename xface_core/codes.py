@@ -10,7 +10,15 @@ from __future__ import annotations
 
 from enum import IntEnum
 
-__all__ = ["REASON_TEXT", "EventKind", "Outcome", "Phase", "Reason", "SlipState"]
+__all__ = [
+    "CROSSCHECK_REFINE_MODES",
+    "REASON_TEXT",
+    "EventKind",
+    "Outcome",
+    "Phase",
+    "Reason",
+    "SlipState",
+]
 
 
 class Outcome(IntEnum):
@@ -124,3 +132,11 @@ class SlipState(IntEnum):
     """No friction state chosen (frictionless, or not yet decided)."""
     SLIDE_POSITIVE = 1
     STICK = 2
+
+
+#: How a converged cross-check halves the engine's step (``crosscheck(refine=...)``, ``xface
+#: crosscheck --refine``): ``"grid"`` runs every cell at each halving until one changes
+#: none; ``"cells"`` runs at each halving only the cells the halving before changed (each
+#: cell is converged when its own last halving left it as it was). Here, not in the
+#: crosscheck package, because the command line offers them without importing the engine.
+CROSSCHECK_REFINE_MODES = ("grid", "cells")

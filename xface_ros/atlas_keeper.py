@@ -80,17 +80,23 @@ class AtlasKeeper:
         self, design: FaceDesign, physics: Physics, cache_dir: str, cancel: Callable[[], bool]
     ) -> AcceptanceAtlas:
         """Build the atlas with every grid-line flip bisected (a planner's first question
-        near a boundary then takes eight confirmations, not a search), or load it from
+        near a boundary then takes eight confirmations, not a search) and its boundary
+        cells' chords checked (the seat probabilities draw boundaries from them), or load it from
         ``cache_dir`` (empty: no cache). A bad cache file is rebuilt and replaced, and a cache
         that cannot be written costs the next start its build, not this one its atlas: each
         is one warning in the log naming the file and why, never an exception."""
         build = partial(build_atlas, design, physics=physics, every_flip=True, cancel=cancel)
         if not cache_dir:
-            return build()
-        return build(
-            cache_dir=cache_dir,
-            on_cache_problem=lambda why: self._logger.warning(f"atlas cache not usable: {why}"),
-        )
+            atlas = build()
+        else:
+            atlas = build(
+                cache_dir=cache_dir,
+                on_cache_problem=lambda why: self._logger.warning(f"atlas cache not usable: {why}"),
+            )
+        # The seat probabilities read the boundary cells' checked chords: checked here, in
+        # the background, not by the first pose with a covariance (0.1-0.7 s).
+        atlas.checked_chords()
+        return atlas
 
     def join(self, timeout_s: float = 60.0) -> None:
         """Wait for the builds started so far (tests, :meth:`stop`)."""

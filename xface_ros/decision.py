@@ -65,6 +65,11 @@ __all__ = [
     "simulate",
 ]
 
+#: How the node's seat probabilities decide poses near a boundary: from the straight
+#: boundaries between its atlas's edge flips (the node builds it with every flip), which
+#: keeps the covariance stream at sensor rate (docs/atlas.md, "Seat probability").
+SEAT_BOUNDARY = "atlas"
+
 #: Input error codes (the ``input_error`` value of an ERROR status), with what they mean.
 INPUT_ERRORS: dict[str, str] = {
     "non_finite": "a position or quaternion component is NaN or infinite",
@@ -286,11 +291,11 @@ def _with_probability(
             return replace(decision, accepted=False, why=why)
         return decision
     matrix = ((cov[0], cov[1]), (cov[2], cov[3]))
-    p = float(
-        seat_probability(
-            config.design, start.x0, start.theta0, matrix, physics=config.physics, atlas=atlas
-        )
-    )
+    p = seat_probability(
+        config.design, start.x0, start.theta0, matrix, physics=config.physics,
+        atlas=atlas, boundary=SEAT_BOUNDARY,
+    )  # fmt: skip
+    p = float(p)
     decision = replace(decision, seat_probability=p)
     if level <= 0.0 or p >= level:
         return decision
@@ -298,7 +303,7 @@ def _with_probability(
     if level < 1.0:
         s = suggest_approach(
             config.design, start.x0, start.theta0, matrix, level=level,
-            physics=config.physics, atlas=atlas, probability=p,
+            physics=config.physics, atlas=atlas, probability=p, boundary=SEAT_BOUNDARY,
         )  # fmt: skip
         if s.reached:
             suggestion = (s.dx, s.dtheta)

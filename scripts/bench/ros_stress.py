@@ -1,9 +1,9 @@
 #!/usr/bin/env python3
 """Stress the xface_predictor node: a fast PoseStamped stream into a node process.
 
-    .venv/bin/python scripts/bench/ros_stress.py               # 1 kHz for 10 s (the docs' numbers)
+    .venv/bin/python scripts/bench/ros_stress.py --table --duration 30 --soak-minutes 10
+    .venv/bin/python scripts/bench/ros_stress.py               # one run: 1 kHz for 10 s
     .venv/bin/python scripts/bench/ros_stress.py --rate 200 --duration 3 --json out.json
-    .venv/bin/python scripts/bench/ros_stress.py --margins-pairs 2  # on / off, twice
 
 Starts the node as its own process (``python -m xface_ros`` with config/xface.yaml), then
 from this process:
@@ -25,10 +25,16 @@ from this process:
 * reads the node's counters from ``/diagnostics`` after the stream has drained;
 * stops the node with SIGINT and records its exit code.
 
-Prints a summary (and writes it as JSON with ``--json``). With ``--margins-pairs N`` it runs
-N pairs, the node as configured and then with ``compute_margins:=false``, alternating, and
-prints per pair the ratio of the median latencies and of the poses predicted (the JSON holds
-both runs of every pair). Discovery stays on this host, in
+Prints a summary (and writes it as JSON with ``--json``). With ``--table`` it runs the rate
+table of docs/ros.md instead: each of ``--rates`` (10, 30 and 100 Hz) with margins (the
+config's default) and with a covariance of 2 mm and 0.05 rad, then a ``--overload-rate``
+stream (1 kHz), each for ``--duration`` s on a fresh node, and prints per row the share of
+poses answered (statuses received for poses sent), the poses dropped because a newer one
+came (newest wins), the median, p99 and largest latency, the node's CPU in cores (its CPU
+time over the stream's wall time) and its RSS growth, with the goals each row is held to
+and whether it met them. ``--soak-minutes M`` then streams 100 Hz with the covariance for M
+minutes and reports how the node's RSS moved after the first minute (growth and
+least-squares slope, read once a second). Discovery stays on this host, in
 ROS domain ``--domain-id`` (default: ``ROS_DOMAIN_ID`` if set, else 199).
 """
 
@@ -238,6 +244,7 @@ def run_stress(
         rss_start = rss_mib(node.pid)
         cpu_node_start, cpu_client_start = cpu_by_thread(node.pid), cpu_by_thread(os.getpid())
         rss_samples = [rss_start]
+        rss_timeline = [(0.0, rss_start)]  # (s since the stream began, MiB)
         sent = 0
         stop = threading.Event()
 
@@ -279,6 +286,8 @@ def run_stress(
             else:
                 service_failures += 1
             rss_samples.append(rss_mib(node.pid))
+            if time.perf_counter() - stream_start >= len(rss_timeline):  # about 1 a second
+                rss_timeline.append((time.perf_counter() - stream_start, rss_samples[-1]))
             stop.wait(0.25)
         publisher.join()
         stream_s = time.perf_counter() - stream_start
@@ -329,6 +338,9 @@ def run_stress(
             rss_mib_start=rss_start,
             rss_mib_end=rss_end,
             rss_mib_peak=max([*rss_samples, rss_end]),
+            rss_timeline=rss_timeline,
+            answered_share=min(1.0, len(lat) / sent) if sent else math.nan,
+            cpu_share_node=sum(cpu_node.values()) / stream_s,
             node_alive_after_stream=node.poll() is None,
             cpu_s_node=cpu_node,
             cpu_s_client=cpu_client,
@@ -408,44 +420,123 @@ def summary(r: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
-#: The node argument of a pair's second run (``--margins-pairs``).
-MARGINS_OFF = ["-p", "compute_margins:=false"]
+#: The sensor rates of the table (Hz), each streamed without and with a covariance.
+TABLE_RATES = (10.0, 30.0, 100.0)
+#: The overload row: far above what the worker can simulate, so the newest pose wins.
+OVERLOAD_HZ = 1000.0
+#: The covariance of the table's second stream of each rate: 2 mm and 0.05 rad (x, yaw).
+TABLE_SIGMAS = (0.002, 0.05)
+#: The soak's warm-up: RSS growth is counted from here (the first minute fills caches).
+SOAK_WARM_UP_S = 60.0
 
 
-def run_pairs(pairs: int, **stress: Any) -> dict[str, Any]:
-    """``pairs`` back-to-back runs of the node as configured and with ``compute_margins``
-    false (the same stream, the same other arguments), alternating; per pair the ratio of the
-    median latencies (on / off) and of the poses predicted. Issue 11 asks for at most 2 and
-    at least 0.5 (docs/ros.md, the load section)."""
-    results = []
-    for _ in range(pairs):
-        on = run_stress(**stress)
-        off = run_stress(**{**stress, "node_args": [*stress["node_args"], *MARGINS_OFF]})
-        results.append(
-            {
-                "on": on,
-                "off": off,
-                "latency_ratio": on["latency_ms_median"] / off["latency_ms_median"],
-                "predicted_ratio": on["node_predicted"] / max(off["node_predicted"], 1),
-            }
+def table_rows(rates: list[float], overload_hz: float) -> list[tuple[float, bool]]:
+    """(rate, with covariance) of every row: each rate without and with, then the overload."""
+    rows = [(rate, cov) for rate in rates for cov in (False, True)]
+    return rows + ([(overload_hz, False)] if overload_hz > 0 else [])
+
+
+def goals(rate_hz: float, covariance: bool, overload: bool) -> dict[str, float]:
+    """The targets a row is held to (docs/ros.md): answered share, p99 latency (ms), and at
+    100 Hz without covariance the node's CPU (cores)."""
+    if overload:
+        return {"latency_ms_p99": 20.0}
+    if covariance:
+        return {"answered_share": 0.99, "latency_ms_p99": 20.0}
+    out = {"answered_share": 1.0, "latency_ms_p99": 10.0}
+    if rate_hz >= 100.0:
+        out["cpu_share_node"] = 0.3
+    return out
+
+
+def met(result: dict[str, Any], goal: dict[str, float]) -> dict[str, bool]:
+    """Per goal: whether the run met it (a share at least, a latency or CPU at most)."""
+    return {
+        key: (result[key] >= bound if key == "answered_share" else result[key] <= bound)
+        for key, bound in goal.items()
+    }
+
+
+def rss_growth(timeline: list[tuple[float, float]], warm_up_s: float) -> tuple[float, float]:
+    """RSS growth (MiB) from the first sample at or after ``warm_up_s`` to the last, and the
+    least-squares slope over the same span (MiB per minute); NaN when the run is shorter."""
+    late = [(t, m) for t, m in timeline if t >= warm_up_s]
+    if len(late) < 2:
+        return math.nan, math.nan
+    t = np.array([p[0] for p in late]) / 60.0
+    m = np.array([p[1] for p in late])
+    return float(m[-1] - m[0]), float(np.polyfit(t, m, 1)[0])
+
+
+def run_table(
+    rates: list[float], overload_hz: float, soak_minutes: float, **stress: Any
+) -> dict[str, Any]:
+    """Every row of the rate table (a fresh node each), then the soak: 100 Hz with a
+    covariance for ``soak_minutes`` (0: none), whose RSS is read every second."""
+    rows = []
+    for rate, with_cov in table_rows(rates, overload_hz):
+        cov = TABLE_SIGMAS if with_cov else None
+        run = run_stress(**{**stress, "rate_hz": rate, "covariance": cov})
+        goal = goals(rate, with_cov, rate == overload_hz)
+        rows.append({"run": run, "goals": goal, "met": met(run, goal)})
+        print(
+            f"{rate:g} Hz, {'covariance' if with_cov else 'margins'}: answered "
+            f"{run['answered_share']:.1%}, p99 {run['latency_ms_p99']:.2f} ms",
+            file=sys.stderr, flush=True,
+        )  # fmt: skip
+    soak = None
+    if soak_minutes > 0:
+        run = run_stress(
+            **{**stress, "rate_hz": 100.0, "covariance": TABLE_SIGMAS,
+               "duration_s": 60.0 * soak_minutes},
+        )  # fmt: skip
+        growth, slope = rss_growth(run["rss_timeline"], SOAK_WARM_UP_S)
+        soak = {"run": run, "rss_growth_mib": growth, "rss_slope_mib_per_min": slope}
+    return {"rows": rows, "soak": soak}
+
+
+def table_summary(t: dict[str, Any]) -> str:
+    """The rate table as Markdown (docs/ros.md), then the soak's line."""
+    lines = [
+        (
+            "| stream | sent | answered | dropped (newest wins) | latency median / p99 / max "
+            "(ms) | node CPU (cores) | RSS growth (MiB) | goals |"
+        ),
+        "|---|---:|---:|---:|---|---:|---:|---|",
+    ]
+    for row in t["rows"]:
+        r = row["run"]
+        kind = "covariance" if r["covariance_sigmas"] else "margins"
+        goal = ", ".join(
+            f"{_GOAL_NAMES[k]} {_bound(k, v)}: {'met' if row['met'][k] else 'NOT met'}"
+            for k, v in row["goals"].items()
         )
-    return {"pairs": results}
-
-
-def pairs_summary(r: dict[str, Any]) -> str:
-    lines = []
-    for n, pair in enumerate(r["pairs"], start=1):
-        on, off = pair["on"], pair["off"]
         lines.append(
-            f"pair {n}: margins on / off: median latency {on['latency_ms_median']:.2f} / "
-            f"{off['latency_ms_median']:.2f} ms ({pair['latency_ratio']:.2f} times), poses "
-            f"predicted {on['node_predicted']} / {off['node_predicted']} "
-            f"({pair['predicted_ratio']:.0%}), statuses with margins "
-            f"{on['statuses_with_margins']} / {off['statuses_with_margins']}, node RSS "
-            f"{on['rss_mib_start']:.1f} -> {on['rss_mib_end']:.1f} / "
-            f"{off['rss_mib_start']:.1f} -> {off['rss_mib_end']:.1f} MiB"
+            f"| {r['rate_hz']:g} Hz, {kind} | {r['sent']} | {r['answered_share']:.1%} | "
+            f"{r['node_dropped_newest_wins']} | {r['latency_ms_median']:.2f} / "
+            f"{r['latency_ms_p99']:.2f} / {r['latency_ms_max']:.2f} | {r['cpu_share_node']:.2f} | "
+            f"{r['rss_mib_end'] - r['rss_mib_start']:+.1f} | {goal} |"
+        )
+    soak = t.get("soak")
+    if soak:
+        r = soak["run"]
+        lines.append(
+            f"\nsoak: 100 Hz with covariance for {r['stream_s'] / 60:.1f} min: answered "
+            f"{r['answered_share']:.1%}, p99 {r['latency_ms_p99']:.2f} ms, node RSS "
+            f"{r['rss_mib_start']:.1f} MiB at start, {r['rss_mib_end']:.1f} at end; after the "
+            f"first {SOAK_WARM_UP_S:g} s it grew {soak['rss_growth_mib']:+.2f} MiB "
+            f"(slope {soak['rss_slope_mib_per_min']:+.3f} MiB/min)"
         )
     return "\n".join(lines)
+
+
+_GOAL_NAMES = {"answered_share": "answered", "latency_ms_p99": "p99", "cpu_share_node": "CPU"}
+
+
+def _bound(key: str, value: float) -> str:
+    if key == "answered_share":
+        return f">= {value:.0%}"
+    return f"<= {value:g} ms" if key.startswith("latency") else f"<= {value:g} core"
 
 
 def _sound(result: dict[str, Any]) -> bool:
@@ -479,15 +570,30 @@ def main(argv: list[str] | None = None) -> int:
         help="stream PoseWithCovarianceStamped with these standard deviations of x and yaw",
     )  # fmt: skip
     parser.add_argument(
-        "--margins-pairs", type=int, default=0, metavar="N",
-        help="run N pairs, the node as configured then with compute_margins:=false, and "
-        "print each pair's ratios of median latency and poses predicted",
+        "--table", action="store_true",
+        help="the rate table: every --rates rate without and with a covariance (2 mm, 0.05 "
+        "rad), then the --overload-rate stream, each --duration s on a fresh node",
+    )  # fmt: skip
+    parser.add_argument(
+        "--rates", type=lambda v: [float(r) for r in v.split(",")], default=list(TABLE_RATES),
+        metavar="HZ,HZ", help="the table's sensor rates (default 10,30,100)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--overload-rate", type=float, default=OVERLOAD_HZ, metavar="HZ",
+        help="the table's overload row (default 1000; 0: none)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--soak-minutes", type=float, default=0.0, metavar="MIN",
+        help="with --table: also stream 100 Hz with a covariance this long and report the "
+        "node's RSS growth after the first minute (the docs: 10)",
     )  # fmt: skip
     parser.add_argument("--json", type=Path, help="also write the results here")
     parser.add_argument("--node-log", type=Path, help="write the node's output here")
     args = parser.parse_args(argv)
-    if args.margins_pairs < 0:
-        parser.error(f"--margins-pairs must be >= 0, got {args.margins_pairs}")
+    if args.rate <= 0 or args.duration <= 0 or any(r <= 0 for r in args.rates):
+        parser.error("rates and durations must be positive")
+    if args.soak_minutes < 0 or args.overload_rate < 0:
+        parser.error("--soak-minutes and --overload-rate must be >= 0")
     stress: dict[str, Any] = {
         "rate_hz": args.rate,
         "duration_s": args.duration,
@@ -500,12 +606,13 @@ def main(argv: list[str] | None = None) -> int:
         "seed": args.seed,
         "covariance": (args.covariance[0], args.covariance[1]) if args.covariance else None,
     }
-    if args.margins_pairs:
-        pairs = run_pairs(args.margins_pairs, **stress)
-        print(pairs_summary(pairs), flush=True)
+    if args.table:
+        table = run_table(args.rates, args.overload_rate, args.soak_minutes, **stress)
+        print(table_summary(table), flush=True)
         if args.json:
-            args.json.write_text(json.dumps(pairs, indent=2, sort_keys=True))
-        runs = [run for pair in pairs["pairs"] for run in (pair["on"], pair["off"])]
+            args.json.write_text(json.dumps(table, indent=2, sort_keys=True))
+        runs = [row["run"] for row in table["rows"]]
+        runs += [table["soak"]["run"]] if table["soak"] else []
         return 0 if all(_sound(run) for run in runs) else 1
     result = run_stress(**stress)
     print(summary(result), flush=True)

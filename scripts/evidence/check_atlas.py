@@ -5,12 +5,18 @@
    search's resolution (1e-4 D, 1e-5 rad) or both infinite. Every disagreement is printed
    with the atlas's outcomes around it so it can be explained.
 2. Probability: ``seat_probability`` against plain Monte Carlo (``predict_batch`` on samples
-   of the Gaussian) on random poses and covariances over X, V and S designs.
+   of the Gaussian) on random poses and covariances over X, V and S designs; with
+   ``--boundary atlas`` the boundaries drawn from the atlas's checked chords (as the ROS node
+   asks, on atlases with every flip), and the node's X 0.25/1 among the designs.
+3. Chords: on atlases with every flip, per design, the boundary cells, those whose chord
+   failed its check (``AcceptanceAtlas.checked_chords``) and the check's time, and for
+   random poses in boundary cells the share on the wrong side of their cell's chord, before
+   the check and after it (the poses of cells set aside are simulated).
 
 Usage::
 
     python scripts/evidence/check_atlas.py [--poses 1000] [--queries 30] [--samples 20000]
-        [--seed 0] [--every-flip]
+        [--seed 0] [--every-flip] [--boundary exact|atlas] [--skip margins|probability|chords]
 
 ``--every-flip`` builds the margins' atlases with every grid-line flip bisected
 (``build_atlas(every_flip=True)``, as the ROS node does).
@@ -38,6 +44,9 @@ MARGIN_DESIGNS = (
     ("S", 0.25, 3.0),
 )
 PROBABILITY_DESIGNS = (("X", 0.25, 2.0), ("V", 0.5, 1.0), ("S", 1.0, 1.0))
+#: The chords' designs: those, and the ROS node's X 0.25/1, whose SEATED and BAD_MATE bands
+#: interleave within cells near |theta0| = 0.6-0.7 rad.
+CHORD_DESIGNS = (*PROBABILITY_DESIGNS, ("X", 0.25, 1.0))
 
 
 def random_poses(
@@ -119,19 +128,22 @@ def check_margins(n_poses: int, rng: np.random.Generator, every_flip: bool = Fal
     print(f"MARGINS: {agree}/{total} poses agree ({100.0 * agree / total:.2f} %)")
 
 
-def check_probability(n_queries: int, n_samples: int, rng: np.random.Generator) -> None:
-    per = math.ceil(n_queries / len(PROBABILITY_DESIGNS))
+def check_probability(
+    n_queries: int, n_samples: int, rng: np.random.Generator, boundary: str = "exact"
+) -> None:
+    designs = CHORD_DESIGNS if boundary == "atlas" else PROBABILITY_DESIGNS
+    per = math.ceil(n_queries / len(designs))
     worst = 0.0
     within = total = 0
-    for kind, h, rp in PROBABILITY_DESIGNS:
+    for kind, h, rp in designs:
         design = xf.make_face(kind, h, rp)
-        atlas = xf.build_atlas(design)
+        atlas = xf.build_atlas(design, every_flip=boundary == "atlas")
         for x0, theta0 in random_poses(atlas, per, rng):
             cov = random_covariance(rng)
             sx, st = math.sqrt(cov[0, 0]), math.sqrt(cov[1, 1])
             rho = cov[0, 1] / (sx * st)
             t0 = time.perf_counter()
-            p = float(xf.seat_probability(design, x0, theta0, cov, atlas=atlas))
+            p = float(xf.seat_probability(design, x0, theta0, cov, atlas=atlas, boundary=boundary))
             elapsed = time.perf_counter() - t0
             samples = rng.multivariate_normal([x0, theta0], cov, size=n_samples)
             mc = float(
@@ -151,9 +163,39 @@ def check_probability(n_queries: int, n_samples: int, rng: np.random.Generator) 
                 f"[{elapsed * 1e3:.0f} ms]"
             )
     print(
-        f"PROBABILITY: {within}/{total} within 0.01 of Monte Carlo ({n_samples} samples); "
-        f"largest |difference| {worst:.4f}"
+        f"PROBABILITY (boundary {boundary}): {within}/{total} within 0.01 of Monte Carlo "
+        f"({n_samples} samples); largest |difference| {worst:.4f}"
     )
+
+
+def check_chords(n_poses: int, rng: np.random.Generator) -> None:
+    """Per design: boundary cells, cells whose chord failed its check, the check's time, and
+    the share of ``n_poses`` random poses in boundary cells on the wrong side of their
+    chord, unchecked and checked (with the share left to simulation)."""
+    for kind, h, rp in CHORD_DESIGNS:
+        design = xf.make_face(kind, h, rp)
+        atlas = xf.build_atlas(design, every_flip=True)
+        t0 = time.perf_counter()
+        trusted = atlas.checked_chords()
+        check_s = time.perf_counter() - t0
+        s = atlas.outcomes == xf.Outcome.SEATED
+        corners = s[:-1, :-1].astype(int) + s[1:, :-1] + s[:-1, 1:] + s[1:, 1:]
+        cells = np.argwhere((corners > 0) & (corners < 4))
+        pick = cells[rng.integers(0, len(cells), n_poses)]
+        i, k = pick[:, 0], pick[:, 1]
+        x = atlas.x0[i] + rng.random(n_poses) * atlas.lateral_step
+        t = atlas.theta0[k] + rng.random(n_poses) * atlas.angle_step
+        exact = xf.predict_batch(design, x, t).outcome == xf.Outcome.SEATED
+        unchecked = atlas._chord_side(x, t, i, k)
+        checked = atlas.seated_by_flips(x, t)
+        wrong_before = np.mean((unchecked >= 0) & (unchecked != exact))
+        wrong_after = np.mean((checked >= 0) & (checked != exact))
+        print(
+            f"CHORDS {kind} {h:g}/{rp:g}: {len(cells)} boundary cells, "
+            f"{np.count_nonzero(~trusted)} set aside by the check ({check_s:.2f} s); of "
+            f"{n_poses} poses in boundary cells on the wrong side: {wrong_before:.2%} "
+            f"unchecked, {wrong_after:.2%} checked ({np.mean(checked < 0):.1%} simulated)"
+        )
 
 
 def main() -> None:
@@ -162,14 +204,20 @@ def main() -> None:
     parser.add_argument("--queries", type=int, default=30)
     parser.add_argument("--samples", type=int, default=20000)
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--skip", choices=("margins", "probability"), default=None)
+    parser.add_argument("--skip", choices=("margins", "probability", "chords"), default=None)
+    parser.add_argument(
+        "--boundary", choices=("exact", "atlas"), default="exact",
+        help="the probability check's boundary (atlas: the ROS node's, chords checked)",
+    )  # fmt: skip
     parser.add_argument("--every-flip", action="store_true", help="atlases with every flip")
     args = parser.parse_args()
     rng = np.random.default_rng(args.seed)
     if args.skip != "margins":
         check_margins(args.poses, rng, args.every_flip)
     if args.skip != "probability":
-        check_probability(args.queries, args.samples, rng)
+        check_probability(args.queries, args.samples, rng, args.boundary)
+    if args.skip != "chords":
+        check_chords(args.poses, rng)
 
 
 if __name__ == "__main__":

@@ -17,7 +17,7 @@ import xface_core as xf
 from xface_core.errors import Cancelled
 from xface_ros.atlas_keeper import AtlasKeeper
 from xface_ros.config import SPECS, ConfigError, NodeConfig, config_from_values
-from xface_ros.decision import PoseInput, evaluate_streamed
+from xface_ros.decision import SEAT_BOUNDARY, PoseInput, evaluate_streamed
 
 NOW_NS = 1_700_000_000_000_000_000
 
@@ -202,7 +202,11 @@ def _pose(config: NodeConfig, x_widths: float, theta0: float, cov: Any = COV) ->
 
 @pytest.fixture(scope="module")
 def atlas(config: NodeConfig) -> xf.AcceptanceAtlas:
-    return _coarse(config.design, config.physics)
+    # With every flip, as the node's keeper builds it: its seat probabilities read them.
+    return xf.build_atlas(
+        config.design, physics=config.physics, lateral_step=1 / 16, angle_step=0.05,
+        every_flip=True,
+    )  # fmt: skip
 
 
 def test_a_pose_with_covariance_carries_its_seat_probability(
@@ -215,7 +219,9 @@ def test_a_pose_with_covariance_carries_its_seat_probability(
     expected = xf.seat_probability(
         config.design, verdict.start.x0, verdict.start.theta0,  # type: ignore[union-attr]
         [[COV[0], COV[1]], [COV[2], COV[3]]], physics=config.physics, atlas=atlas,
+        boundary=SEAT_BOUNDARY,
     )  # fmt: skip
+    assert SEAT_BOUNDARY == "atlas"  # the node draws the boundaries from its atlas's flips
     assert p == expected
     assert 0.0 < p < 1.0
 

@@ -9,14 +9,17 @@ from __future__ import annotations
 
 import math
 import time
+from pathlib import Path
 from typing import Any
 
 import pytest
+import yaml
 from lifecycle_msgs.msg import State, Transition
 from lifecycle_msgs.srv import ChangeState, GetState
 
 pytestmark = pytest.mark.ros
 
+ROOT = Path(__file__).resolve().parents[2]
 WIDTH = 0.05
 #: A transition returns without waiting for the warm-up, but the warm-up's compiling (on a fresh
 #: install) holds Python's GIL most of the time, which slows the executor: generous.
@@ -27,10 +30,10 @@ GRAPH_TIMEOUT_S = 60.0
 class Manager:
     """A lifecycle manager for the node under test (the test client's node makes the calls)."""
 
-    def __init__(self, client: Any) -> None:
+    def __init__(self, client: Any, node: str = "/xface_predictor") -> None:
         self.client = client
-        self.change = client.node.create_client(ChangeState, "/xface_predictor/change_state")
-        self.get = client.node.create_client(GetState, "/xface_predictor/get_state")
+        self.change = client.node.create_client(ChangeState, f"{node}/change_state")
+        self.get = client.node.create_client(GetState, f"{node}/get_state")
 
     def transition(self, transition_id: int) -> bool:
         request = ChangeState.Request(transition=Transition(id=transition_id))
@@ -107,3 +110,31 @@ def test_answers_only_while_active(managed: tuple[Any, Manager]) -> None:
     wait_until(lambda: not c.status_client.service_is_ready())
     wait_until(lambda: not dock.service_is_ready())
     wait_until(lambda: c.pose_pub.get_subscription_count() == 0)
+
+
+def test_the_nav2_lifecycle_recipe_brings_the_node_up_and_down(launch: Any) -> None:
+    # config/nav2_lifecycle.yaml, driven as nav2_lifecycle_manager drives its nodes (it is
+    # not on PyPI): startup configures and activates each node in order, shutdown
+    # deactivates, cleans up and shuts down in reverse; with bond_timeout 0 nothing else.
+    recipe = yaml.safe_load((ROOT / "config" / "nav2_lifecycle.yaml").read_text())
+    params = recipe["lifecycle_manager_xface"]["ros__parameters"]
+    assert params["bond_timeout"] == 0.0  # no bond to form: a positive one aborts bringup
+    assert params["autostart"] is True
+    running = launch(wait=False, node_args=["--lifecycle"], compute_margins=False)
+    managers = [Manager(running.client, f"/{name}") for name in params["node_names"]]
+    for manager in managers:
+        manager.wait_until_answering()
+        assert manager.transition(Transition.TRANSITION_CONFIGURE)
+        assert manager.transition(Transition.TRANSITION_ACTIVATE)
+        assert manager.state() == State.PRIMARY_STATE_ACTIVE
+    c = running.client
+    c.wait_for_node(running.node)
+    _sent, status = c.publish_until_status(lambda: c.pose_msg(0.0, 3 * WIDTH, math.pi))
+    assert status.message.startswith("SEATED: ")
+    for transition_id in (
+        Transition.TRANSITION_DEACTIVATE, Transition.TRANSITION_CLEANUP,
+        Transition.TRANSITION_UNCONFIGURED_SHUTDOWN,
+    ):  # fmt: skip
+        for manager in reversed(managers):
+            assert manager.transition(transition_id), transition_id
+    assert all(m.state() == State.PRIMARY_STATE_FINALIZED for m in managers)

@@ -81,6 +81,8 @@ def test_colcon_builds_the_repository(tmp_path: Path) -> None:
     # ros2 run and launch_ros look for executables in lib/<package>.
     assert (installed / "lib" / "xface" / "xface-predictor").exists()
     share = installed / "share" / "xface"
-    for name in ("package.xml", "config/xface.yaml", "launch/xface.launch.py"):
+    for name in (
+        "package.xml", "config/xface.yaml", "config/nav2_lifecycle.yaml", "launch/xface.launch.py",
+    ):  # fmt: skip
         assert (share / name).exists(), name
     assert (installed / "share" / "ament_index" / "resource_index" / "packages" / "xface").exists()

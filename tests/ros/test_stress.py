@@ -86,18 +86,26 @@ def test_a_stream_with_covariance_gets_a_seat_probability_in_every_status(
     assert r["node_received"] == r["node_predicted"] + r["node_dropped_newest_wins"]
 
 
-def test_a_margins_pair_runs_the_node_with_and_without_margins(
-    ros_domain_id: int, tmp_path: Path
-) -> None:
-    r = _stress(ros_domain_id, tmp_path, "--rate", "200", "--duration", "1", "--margins-pairs", "1")
-    [pair] = r["pairs"]
-    on, off = pair["on"], pair["off"]
-    for run in (on, off):
+def test_the_rate_table_runs_every_row_on_a_sound_node(ros_domain_id: int, tmp_path: Path) -> None:
+    r = _stress(
+        ros_domain_id, tmp_path, "--table", "--rates", "30", "--overload-rate", "200",
+        "--duration", "1",
+    )  # fmt: skip
+    rows = [row["run"] for row in r["rows"]]
+    assert [(run["rate_hz"], run["covariance_sigmas"]) for run in rows] == [
+        (30.0, None), (30.0, [0.002, 0.05]), (200.0, None),
+    ]  # fmt: skip
+    for run in rows:
         assert run["node_exit_code"] == 0
-        assert run["statuses_received"] > 0
-    # Every status of the first run carries margins (the stream waits for the atlas), none of
-    # the second: it really ran with compute_margins false.
-    assert on["statuses_with_margins"] == on["statuses_received"]
-    assert off["statuses_with_margins"] == 0
-    assert pair["latency_ratio"] == on["latency_ms_median"] / off["latency_ms_median"]
-    assert pair["predicted_ratio"] == on["node_predicted"] / off["node_predicted"]
+        assert 0.0 < run["answered_share"] <= 1.0
+        assert run["answered_share"] == min(1.0, run["statuses_received"] / run["sent"])
+        assert run["cpu_share_node"] > 0.0
+    # The covariance row streamed with one: every answer carries P(seat).
+    assert rows[1]["statuses_with_probability"] == rows[1]["statuses_received"]
+    # Every row is held to its goals, and says whether it met each.
+    assert [set(row["goals"]) for row in r["rows"]] == [
+        {"answered_share", "latency_ms_p99"}, {"answered_share", "latency_ms_p99"},
+        {"latency_ms_p99"},
+    ]  # fmt: skip
+    assert all(set(row["met"]) == set(row["goals"]) for row in r["rows"])
+    assert r["soak"] is None

@@ -358,6 +358,7 @@ def suggest_approach(
     physics: Physics | None = None,
     atlas: AcceptanceAtlas | None = None,
     probability: float | None = None,
+    boundary: str = "exact",
 ) -> ApproachSuggestion:
     """The smallest correction of (x0, theta0) after which the dock is likely or safe.
 
@@ -386,6 +387,9 @@ def suggest_approach(
         With ``cov``: the seat probability at (x0, theta0) when the caller has computed it
         already (:func:`~xface_core.atlas.probability.seat_probability` with this atlas, as the
         ROS node has): spares that evaluation. In [0, 1].
+    boundary : {"exact", "atlas"}
+        With ``cov``: how each seat probability decides the poses near a boundary
+        (:func:`~xface_core.atlas.probability.seat_probability`'s ``boundary``).
 
     Returns
     -------
@@ -410,7 +414,7 @@ def suggest_approach(
     at = at.bound_to(design, phys)
     start = np.array([x0 / design.width, theta0])
     if cov is not None:
-        return _by_probability(at, start, cov, level, probability)
+        return _by_probability(at, start, cov, level, probability, boundary)
     return _by_margins(at, start, min_lateral, min_angle)
 
 
@@ -420,6 +424,7 @@ def _by_probability(
     cov: npt.ArrayLike,
     level: float,
     probability: float | None,
+    boundary: str,
 ) -> ApproachSuggestion:
     """:func:`suggest_approach` with a covariance (``start`` in D and rad)."""
     if not 0.0 < level < 1.0:
@@ -436,7 +441,9 @@ def _by_probability(
         return np.asarray(np.sqrt(np.einsum("...i,ij,...j->...", delta, inv, delta)))
 
     def probability_at(pose: FloatArray) -> float:
-        p = seat_probability(design, pose[0] * w, pose[1], c, physics=at.physics, atlas=at)
+        p = seat_probability(
+            design, pose[0] * w, pose[1], c, physics=at.physics, atlas=at, boundary=boundary
+        )
         return float(p)
 
     def meets(pose: FloatArray) -> tuple[bool, object]:

@@ -30,6 +30,7 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field, fields, replace
+from functools import cached_property
 from pathlib import Path
 from typing import Any
 
@@ -79,6 +80,10 @@ DEFAULT_ANGLE_STEP = math.pi / 256.0
 DEFAULT_ANGLE_RANGE = 1.5 * math.pi
 #: Nodes between the simulated lines of the first pass (a power of two).
 DEFAULT_COARSE_STRIDE = 8
+#: Where a boundary cell's chord is checked, in cell coordinates (fractions of the steps):
+#: the centre and the four quarter points. With the centre alone 3 % of the poses in X
+#: 0.25/1's boundary cells stayed on the wrong side of their chord, with these five 0.5 %.
+CHORD_CHECK_POINTS = ((0.5, 0.5), (0.25, 0.25), (0.75, 0.75), (0.25, 0.75), (0.75, 0.25))
 #: Largest grid accepted (int8 outcomes: 4 MB; about 5 minutes to build on a loaded
 #: 2-core machine if every node had to be simulated).
 MAX_ATLAS_NODES = 4_000_000
@@ -99,6 +104,9 @@ class FlipStore:
         self._lock = threading.Lock()
         self._known: dict[tuple[int, int, int], tuple[float, float]] = {}
         self._asked: set[tuple[int, int, int]] = set()
+        self._version = 0  # counts the changes, so the dense arrays know when to renew
+        self._dense: tuple[int, tuple[int, int], FloatArray, FloatArray] | None = None
+        self._chords: tuple[int, npt.NDArray[np.bool_]] | None = None
 
     def worth_finding(self, keys: list[tuple[int, int, int]]) -> bool:
         """True when every key is known or was asked for before (then bisecting the unknown
@@ -116,6 +124,7 @@ class FlipStore:
     def put(self, key: tuple[int, int, int], bracket: tuple[float, float]) -> None:
         with self._lock:
             self._known[key] = bracket
+            self._version += 1
 
     def __len__(self) -> int:
         with self._lock:
@@ -128,6 +137,48 @@ class FlipStore:
         keys = np.array([k for k, _ in items], dtype=np.int64).reshape(-1, 3)
         brackets = np.array([b for _, b in items], dtype=np.float64).reshape(-1, 2)
         return keys, brackets
+
+    def dense(self, shape: tuple[int, int]) -> tuple[FloatArray, FloatArray]:
+        """The known flips as two grids of positions (the middle of each bracket), NaN
+        where none is known, for a grid of ``shape`` (nodes along x0, along theta0):
+        ``along_x0[i, k]`` (D) between nodes (i, k) and (i + 1, k), ``along_theta0[i, k]``
+        (rad) between (i, k) and (i, k + 1). Kept until a flip is added (read-only)."""
+        with self._lock:
+            cached = self._dense
+            if cached is not None and cached[0] == self._version and cached[1] == shape:
+                return cached[2], cached[3]
+            version = self._version
+        keys, brackets = self.arrays()
+        along_x0 = np.full((shape[0] - 1, shape[1]), np.nan)
+        along_theta0 = np.full((shape[0], shape[1] - 1), np.nan)
+        middle = brackets.mean(axis=1)
+        on_column = keys[:, 0] == 0
+        along_x0[keys[on_column, 2], keys[on_column, 1]] = middle[on_column]
+        along_theta0[keys[~on_column, 1], keys[~on_column, 2]] = middle[~on_column]
+        along_x0.flags.writeable = False
+        along_theta0.flags.writeable = False
+        with self._lock:
+            self._dense = (version, shape, along_x0, along_theta0)
+        return along_x0, along_theta0
+
+    def checked_chords(self) -> npt.NDArray[np.bool_] | None:
+        """The cells whose chords passed their check
+        (:meth:`AcceptanceAtlas.checked_chords`), while no flip has changed since; None
+        before a check or after a change."""
+        with self._lock:
+            kept = self._chords
+            return kept[1] if kept is not None and kept[0] == self._version else None
+
+    def keep_checked_chords(self, version: int, trusted: npt.NDArray[np.bool_]) -> None:
+        """Keep a chord check made on the flips of ``version`` (:attr:`version`)."""
+        with self._lock:
+            self._chords = (version, trusted)
+
+    @property
+    def version(self) -> int:
+        """Counts the changes to the known flips."""
+        with self._lock:
+            return self._version
 
     def add_arrays(
         self, keys: npt.ArrayLike, brackets: npt.ArrayLike, shape: tuple[int, int]
@@ -157,6 +208,7 @@ class FlipStore:
         with self._lock:
             for key, bracket in zip(k.tolist(), b.tolist(), strict=True):
                 self._known[(key[0], key[1], key[2])] = (bracket[0], bracket[1])
+            self._version += 1
 
     def __getstate__(self) -> dict[str, object]:
         # An atlas goes to process-pool workers by pickle: the flips go with it, a lock cannot.
@@ -167,6 +219,9 @@ class FlipStore:
         self._lock = threading.Lock()
         self._known = state["known"]
         self._asked = state["asked"]
+        self._version = 0
+        self._dense = None
+        self._chords = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -248,15 +303,139 @@ class AcceptanceAtlas:
         k = np.floor((np.nan_to_num(t) - self.theta0[0]) / self.angle_step).astype(np.intp)
         return np.clip(i, 0, self.x0.size - 2), np.clip(k, 0, self.theta0.size - 2)
 
+    @cached_property
+    def _seated_nodes(self) -> npt.NDArray[np.int8]:
+        # 1 where a node seats, else 0: read by every sample of every probability query
+        # (comparing the whole grid per call cost more than the query's own work).
+        seated: npt.NDArray[np.int8] = (self.outcomes == Outcome.SEATED).astype(np.int8)
+        seated.flags.writeable = False
+        return seated
+
+    def _cells(
+        self, x: FloatArray, t: FloatArray
+    ) -> tuple[npt.NDArray[np.intp], npt.NDArray[np.intp], npt.NDArray[np.bool_]]:
+        """Lower-left node (i, k) of each pose's cell (clipped) and whether it lies inside."""
+        u = (x - self.x0[0]) / self.lateral_step
+        v = (t - self.theta0[0]) / self.angle_step
+        inside = (u >= 0.0) & (u <= self.x0.size - 1) & (v >= 0.0) & (v <= self.theta0.size - 1)
+        i = np.clip(np.floor(np.where(inside, u, 0.0)), 0, self.x0.size - 2).astype(np.intp)
+        k = np.clip(np.floor(np.where(inside, v, 0.0)), 0, self.theta0.size - 2).astype(np.intp)
+        return i, k, inside
+
     def seated_in_cell(self, x0_d: npt.ArrayLike, theta0: npt.ArrayLike) -> npt.NDArray[np.int8]:
         """Per pose: 1 when its cell's four corners all seat, 0 when none does, -1 when they
         disagree or the pose lies outside the grid (an exact simulation must decide)."""
-        i, k = self.cell_index(x0_d, theta0)
-        s = self.outcomes == Outcome.SEATED
-        corners = s[i, k].astype(np.int8) + s[i + 1, k] + s[i, k + 1] + s[i + 1, k + 1]
+        x = np.asarray(x0_d, dtype=np.float64)
+        t = np.asarray(theta0, dtype=np.float64)
+        i, k, inside = self._cells(x, t)
+        s = self._seated_nodes
+        corners = s[i, k] + s[i + 1, k] + s[i, k + 1] + s[i + 1, k + 1]
         out = np.where(corners == 4, 1, np.where(corners == 0, 0, -1)).astype(np.int8)
-        out[~self.covers(x0_d, theta0)] = -1
+        out[~inside] = -1
         return out
+
+    def seated_by_flips(self, x0_d: npt.ArrayLike, theta0: npt.ArrayLike) -> npt.NDArray[np.int8]:
+        """As :meth:`seated_in_cell`, and in a cell whose corners disagree the side of the
+        chord drawn between the flips known on its two edges that change (marching squares:
+        1 on the seated corners' side, 0 on the other), where that cell's chord passed its
+        check (:meth:`checked_chords`, made on first use). -1 still where no chord can be
+        drawn (the two seated corners opposite, a flip not known yet), where the check
+        found it wrong, and outside the grid: an exact simulation must decide those.
+
+        The chord is exact only where the boundary is straight across the cell: a curved
+        one is off by about its curvature times the cell size squared over 8, and
+        structure finer than a cell that the check's five points miss is not seen. What
+        that costs a seat probability is measured in docs/atlas.md."""
+        x = np.asarray(x0_d, dtype=np.float64)
+        t = np.asarray(theta0, dtype=np.float64)
+        out = self.seated_in_cell(x, t)
+        x, t, flat = x.ravel(), t.ravel(), out.reshape(-1)
+        i, k, inside = self._cells(x, t)
+        mixed = np.nonzero((flat < 0) & inside)[0]
+        if mixed.size == 0:
+            return out
+        i, k = i[mixed], k[mixed]
+        side = self._chord_side(x[mixed], t[mixed], i, k)
+        flat[mixed] = np.where(self.checked_chords()[i, k], side, -1)
+        return out
+
+    def checked_chords(self, threads: int | None = None) -> npt.NDArray[np.bool_]:
+        """Per cell (n - 1, m - 1): False where the chord of :meth:`seated_by_flips` put one
+        of five points (the centre and the four quarter points) on the wrong side of the
+        boundary by an exact simulation, True elsewhere. Made once (five simulations per
+        cell whose corners disagree on seating; 0.1-0.7 s on the default grids, ``threads``
+        as for :func:`~xface_core.runner.outcomes_at`) and kept until a flip changes.
+
+        Where outcomes interleave within a cell (SEATED and BAD_MATE bands on X 0.25/1 near
+        |theta0| = 0.6-0.7 rad) the chord is wrong for 8 % of the poses in boundary cells;
+        after this check, for 0.5 %, the rest simulated (docs/atlas.md)."""
+        kept = self.flips.checked_chords()
+        if kept is not None:
+            return kept
+        version = self.flips.version
+        s = self._seated_nodes
+        corners = s[:-1, :-1] + s[1:, :-1] + s[:-1, 1:] + s[1:, 1:]
+        cells = np.argwhere((corners > 0) & (corners < 4))
+        trusted = np.ones(corners.shape, dtype=bool)
+        if cells.size:
+            i = np.repeat(cells[:, 0], len(CHORD_CHECK_POINTS))
+            k = np.repeat(cells[:, 1], len(CHORD_CHECK_POINTS))
+            fraction = np.tile(np.array(CHORD_CHECK_POINTS), (len(cells), 1))
+            x = self.x0[i] + fraction[:, 0] * self.lateral_step
+            t = self.theta0[k] + fraction[:, 1] * self.angle_step
+            side = self._chord_side(x, t, i, k)
+            asked = side >= 0
+            exact = outcomes_at(self.design, x[asked], t[asked], self.physics, threads=threads)
+            wrong = np.zeros(side.shape, dtype=bool)
+            wrong[asked] = side[asked] != (exact == Outcome.SEATED)
+            trusted[i[wrong], k[wrong]] = False
+        trusted.flags.writeable = False
+        self.flips.keep_checked_chords(version, trusted)
+        return trusted
+
+    def _chord_side(
+        self,
+        x: FloatArray,
+        t: FloatArray,
+        i: npt.NDArray[np.intp],
+        k: npt.NDArray[np.intp],
+    ) -> npt.NDArray[np.int8]:
+        """For poses (D, rad) in cells (i, k) whose corners disagree: 1 on the seated side of
+        the chord between the flips on the cell's two changing edges, 0 on the other, -1
+        where there is no chord (opposite seated corners, a flip unknown, both flips at one
+        corner)."""
+        s = self._seated_nodes
+        c00, c10, c01, c11 = s[i, k], s[i + 1, k], s[i, k + 1], s[i + 1, k + 1]
+        along_x0, along_theta0 = self.flips.dense(self.outcomes.shape)
+        dx, dt = self.lateral_step, self.angle_step
+        u = (x - self.x0[i]) / dx  # the pose in cell coordinates (0..1 both ways)
+        v = (t - self.theta0[k]) / dt
+        # The crossing on each edge in cell coordinates: bottom (b, 0), right (1, r),
+        # top (p, 1), left (0, q); an edge whose ends agree has none.
+        bottom = (along_x0[i, k] - self.x0[i]) / dx
+        right = (along_theta0[i + 1, k] - self.theta0[k]) / dt
+        top = (along_x0[i, k + 1] - self.x0[i]) / dx
+        left = (along_theta0[i, k] - self.theta0[k]) / dt
+        edge_u = np.column_stack((bottom, np.ones_like(u), top, np.zeros_like(u)))
+        edge_v = np.column_stack((np.zeros_like(u), right, np.ones_like(u), left))
+        changes = np.column_stack((c00 != c10, c10 != c11, c01 != c11, c00 != c01))
+        first, second = np.argsort(~changes, axis=1, kind="stable")[:, :2].T
+        rows = np.arange(u.size)
+        pu, pv = edge_u[rows, first], edge_v[rows, first]
+        eu, ev = edge_u[rows, second] - pu, edge_v[rows, second] - pv
+        # The side of the chord: of the pose, and of a seated corner (the first one: c00,
+        # c10, c01 then c11).
+        seated_u = np.where(c00 == 1, 0.0, np.where(c10 == 1, 1.0, np.where(c01 == 1, 0.0, 1.0)))
+        seated_v = np.where((c00 == 1) | (c10 == 1), 0.0, 1.0)
+        pose_side = eu * (v - pv) - ev * (u - pu)
+        seated_side = eu * (seated_v - pv) - ev * (seated_u - pu)
+        # A chord needs two distinct crossings (both at one corner: a boundary through a node).
+        drawn = (
+            (changes.sum(axis=1) == 2)
+            & np.isfinite(pose_side * seated_side)
+            & (eu * eu + ev * ev > 1e-12)
+        )
+        return np.where(drawn, pose_side * seated_side > 0.0, -1).astype(np.int8)
 
     def bound_to(self, design: FaceDesign, physics: Physics) -> AcceptanceAtlas:
         """This atlas for ``design`` (same geometry, any width: the atlas is in units of D, and
@@ -269,7 +448,12 @@ class AcceptanceAtlas:
             raise XfaceValueError("the atlas was built for another design geometry")
         if physics != self.physics:
             raise XfaceValueError(f"the atlas was built for {self.physics!r}, not for {physics!r}")
-        return self if design is self.design else replace(self, design=design)
+        if design is self.design:
+            return self
+        bound = replace(self, design=design)
+        if "_seated_nodes" in self.__dict__:  # the same nodes: not compared again
+            bound.__dict__["_seated_nodes"] = self.__dict__["_seated_nodes"]
+        return bound
 
     def save(self, path: str | Path) -> Path:
         """Write the atlas to an ``.npz`` file (``build_atlas(..., cache_dir=...)`` reads it

@@ -13,13 +13,19 @@ Each ray is sampled at least twice per atlas cell. A sample whose atlas cell has
 corners counts as seated, four non-SEATED corners as not; any other sample (a boundary runs
 through its cell, or it lies outside the atlas) is simulated exactly. Where two neighbouring
 samples differ, the crossing is bisected by exact simulations, so the boundaries that carry
-the Gaussian's mass are exact to 1/16 of a sample spacing. The rays integrate the rest, by
+the Gaussian's mass are exact to 1/16 of a sample spacing. With ``boundary="atlas"`` a
+sample in a boundary cell, and each bisection step, is read from the chord between the
+flips on the cell's edges where that cell's chord passed its check
+(:meth:`~xface_core.atlas.build.AcceptanceAtlas.seated_by_flips`) and simulated only
+elsewhere: no simulation at all for most queries, at the cost of the chords' error
+(docs/atlas.md). The rays integrate the rest, by
 adaptive trapezoids in angle (16 evenly spaced, then more where neighbouring rays' masses
 disagree: where a ray grazes a boundary or passes a corner of the SEATED region), or ``rays``
 evenly spaced ones.
 
-Mass outside the atlas is not guessed: those samples are simulated like any other (beyond
-|x0| = L they end OUT_OF_REACH, beyond |theta0| = 2 pi INVALID_INPUT: not seated). Mass beyond
+Mass outside the atlas is not guessed: beyond |x0| = L a sample is OUT_OF_REACH by the
+engine's first rule (not simulated); the others are simulated like any other (beyond
+|theta0| = 2 pi INVALID_INPUT: not seated). Mass beyond
 5 standard deviations (3.7e-6) takes the outcome of the ray's last sample.
 """
 
@@ -40,6 +46,7 @@ from xface_core.runner import outcomes_at
 from .build import AcceptanceAtlas, build_atlas
 
 __all__ = [
+    "BOUNDARIES",
     "DEFAULT_RAYS",
     "DEFAULT_RAY_TOL",
     "RAY_RADIUS",
@@ -74,6 +81,11 @@ MAX_RAY_SAMPLES = 1024
 #: left the largest error against 1024 rays the same, 2.4e-3
 #: (scripts/bench/bench_seat_probability.py, docs/atlas.md).
 CROSSING_STEPS = 4
+#: Where a boundary runs through an atlas cell: ``"exact"`` simulates the samples there and
+#: bisects their crossings by simulation; ``"atlas"`` draws the boundary straight between
+#: the flips on the cell's edges (an atlas built with ``every_flip`` has them all) and
+#: simulates only where none can be drawn.
+BOUNDARIES = ("exact", "atlas")
 
 
 def checked_covariances(cov: npt.ArrayLike, n: int) -> FloatArray:
@@ -124,6 +136,22 @@ def _samples_per_ray(atlas: AcceptanceAtlas, factor: FloatArray) -> int:
     return int(min(MAX_RAY_SAMPLES, max(8, math.ceil(RAY_RADIUS * stretch / 0.5))))
 
 
+def _seated(
+    atlas: AcceptanceAtlas, xs: FloatArray, ts: FloatArray, boundary: str
+) -> npt.NDArray[np.int8]:
+    """1 where a pose (D, rad) seats, else 0: from the atlas where its cell's corners agree
+    (``boundary="atlas"``: also from the straight boundary between the cell's edge flips,
+    :meth:`~xface_core.atlas.build.AcceptanceAtlas.seated_by_flips`), else simulated."""
+    seated = atlas.seated_by_flips(xs, ts) if boundary == "atlas" else atlas.seated_in_cell(xs, ts)
+    # Beyond the mated distance the engine's first rule ends every run OUT_OF_REACH.
+    seated[np.abs(xs) > atlas.design.mated_distance] = 0
+    unknown = seated < 0
+    if unknown.any():
+        exact = outcomes_at(atlas.design, xs[unknown], ts[unknown], atlas.physics)
+        seated[unknown] = exact == Outcome.SEATED
+    return seated
+
+
 def _ray_masses(
     atlas: AcceptanceAtlas,
     mean: tuple[float, float],
@@ -132,23 +160,20 @@ def _ray_masses(
     phi: FloatArray,
     n_r: int,
     crossing_steps: int,
+    boundary: str,
 ) -> FloatArray:
     """The Gaussian's SEATED mass along each ray of direction ``phi`` (rad, in the whitened
-    plane), ``n_r`` samples a ray: all rays' simulations in one batch, then one batch per
-    bisection step of their crossings."""
-    design, physics = atlas.design, atlas.physics
+    plane), ``n_r`` samples a ray: all rays' samples in one batch, then one batch per
+    bisection step of their crossings (simulated, or with ``boundary="atlas"`` read from
+    the atlas's straight boundaries where a cell has them)."""
     u = np.column_stack((np.cos(phi), np.sin(phi)))
     d = u @ factor.T  # pose change per unit radius, (rays, 2)
     r = np.linspace(0.0, RAY_RADIUS, n_r + 1)
     xs = mean[0] + r[None, :] * d[:, 0, None]
     ts = mean[1] + r[None, :] * d[:, 1, None]
-    seated = atlas.seated_in_cell(xs, ts)
+    seated = _seated(atlas, xs, ts, boundary)
     seated[:, 0] = int(seated_at_mean)
-    unknown = seated < 0
-    if unknown.any():
-        exact = outcomes_at(design, xs[unknown], ts[unknown], physics)
-        seated[unknown] = exact == Outcome.SEATED
-    # Crossings between neighbouring samples, bisected exactly (all rays at once).
+    # Crossings between neighbouring samples, bisected (all rays at once).
     ray, k = np.nonzero(seated[:, :-1] != seated[:, 1:])
     crossing = np.broadcast_to(r[1:], seated[:, 1:].shape).copy()
     if ray.size:
@@ -156,10 +181,8 @@ def _ray_masses(
         inner = seated[ray, k]
         for _ in range(crossing_steps):
             mid = 0.5 * (lo + hi)
-            codes = outcomes_at(
-                design, mean[0] + mid * d[ray, 0], mean[1] + mid * d[ray, 1], physics
-            )
-            same = (codes == Outcome.SEATED) == inner.astype(bool)
+            got = _seated(atlas, mean[0] + mid * d[ray, 0], mean[1] + mid * d[ray, 1], boundary)
+            same = got == inner
             lo = np.where(same, mid, lo)
             hi = np.where(same, hi, mid)
         crossing[ray, k] = 0.5 * (lo + hi)
@@ -219,17 +242,17 @@ def _one_query(
     mean: tuple[float, float],
     factor: FloatArray,
     seated_at_mean: bool,
-    quadrature: tuple[int | None, float, int],
+    quadrature: tuple[int | None, float, int, str],
 ) -> float:
     """Seat probability of one query (pose in D and rad, ``factor`` A in D and rad);
-    ``quadrature``: rays (None: adaptive in angle), ray tolerance, crossing steps."""
+    ``quadrature``: rays (None: adaptive in angle), ray tolerance, crossing steps, boundary."""
     if not factor.any():
         return 1.0 if seated_at_mean else 0.0
-    rays, ray_tol, crossing_steps = quadrature
+    rays, ray_tol, crossing_steps, boundary = quadrature
     n_r = _samples_per_ray(atlas, factor)
 
     def masses(phi: FloatArray) -> FloatArray:
-        return _ray_masses(atlas, mean, factor, seated_at_mean, phi, n_r, crossing_steps)
+        return _ray_masses(atlas, mean, factor, seated_at_mean, phi, n_r, crossing_steps, boundary)
 
     if rays is None:
         return _adaptive_in_angle(masses, ray_tol)[0]
@@ -247,6 +270,7 @@ def seat_probability(
     rays: int | None = None,
     ray_tol: float = DEFAULT_RAY_TOL,
     crossing_steps: int = CROSSING_STEPS,
+    boundary: str = "exact",
 ) -> float | FloatArray:
     """Probability that the dock seats when the true (x0, theta0) is Gaussian around the
     estimate, for one query or many.
@@ -275,6 +299,12 @@ def seat_probability(
     crossing_steps : int
         Bisection steps of each boundary crossing along a ray (default 4: to 1/16 of the
         spacing of the ray's samples).
+    boundary : {"exact", "atlas"}
+        How a sample in an atlas cell with a boundary is decided (default ``"exact"``: by
+        simulation); ``"atlas"``: by the straight boundary between the flips on the cell's
+        edges, simulating only where none can be drawn, no simulation at all for most
+        queries on an atlas built with ``every_flip`` (as the ROS node's is). Its error
+        and speed against the exact boundary are measured in docs/atlas.md.
 
     Returns
     -------
@@ -306,6 +336,8 @@ def seat_probability(
     tol: object = ray_tol
     if isinstance(tol, bool) or not isinstance(tol, (int, float)) or not 0.0 < tol <= 1.0:
         raise XfaceValueError(f"ray_tol must be a number in (0, 1], got {ray_tol!r}")
+    if boundary not in BOUNDARIES:
+        raise XfaceValueError(f"boundary must be one of {BOUNDARIES}, got {boundary!r}")
     if not is_integer_in(crossing_steps, 0, 30):
         raise XfaceValueError(
             f"crossing_steps must be an integer in [0, 30], got {crossing_steps!r}"
@@ -340,7 +372,7 @@ def seat_probability(
                 (xs[n] / w, ts[n]),
                 factors[n],
                 bool(at_mean[n] == Outcome.SEATED),
-                (rays, float(ray_tol), crossing_steps),
+                (rays, float(ray_tol), crossing_steps, boundary),
             )
             for n in range(xs.size)
         ]

@@ -45,7 +45,7 @@ from typing import Any
 
 import numpy as np
 
-from xface_core.codes import Outcome
+from xface_core.codes import CROSSCHECK_REFINE_MODES, Outcome
 from xface_core.errors import XfaceError, XfaceValueError
 from xface_core.facefile import load_face
 from xface_core.frames import NotFacingError, check_facing
@@ -815,6 +815,7 @@ def _cmd_crosscheck(args: argparse.Namespace) -> int:
         cells=_crosscheck_cells(args),
         settings=settings,
         converged=args.converged,
+        refine=args.refine,
         workers=args.workers,
         progress=None if args.quiet else stderr_progress,
     )
@@ -842,8 +843,12 @@ def _crosscheck_lines(r: Any) -> list[str]:
             f"sharp and {r.rounding:g} D rounded corners"
         ),
     ]
-    for step, changed in r.step_history:
-        lines.append(f"          step (and slop) halved to {step:g} D: {changed} cells changed")
+    only = " (only the cells the halving before changed)" if r.refine == "cells" else ""
+    for n, (step, changed) in enumerate(r.step_history):
+        lines.append(
+            f"          step (and slop) halved to {step:g} D: {changed} cells changed"
+            + (only if n else "")
+        )
     if r.stall_changes is not None:
         lines.append(
             f"          jams run again at 1/100 of the stall speed: {r.stall_changes} cells changed"
@@ -1056,6 +1061,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--converged", action="store_true", help="halve the step until the map stops changing"
     )
+    p.add_argument(
+        "--refine", choices=CROSSCHECK_REFINE_MODES, default="grid",
+        help="with --converged: each halving runs every cell (grid) or only the cells the "
+        "halving before changed (cells: faster)",
+    )  # fmt: skip
     p.add_argument("--workers", type=int, default=None, help="processes (default: all cores)")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
     p.add_argument("--json", action="store_true", help="machine-readable output")

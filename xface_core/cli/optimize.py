@@ -27,6 +27,7 @@ from functools import partial
 from pathlib import Path
 from typing import Any
 
+from xface_core.codes import CROSSCHECK_REFINE_MODES
 from xface_core.errors import XfaceValueError
 from xface_core.facefile import save_face
 from xface_core.geometry import FaceDesign, x_face
@@ -200,6 +201,7 @@ def _crosscheck(
         physics,
         grid=args.crosscheck_grid,
         converged=True,
+        refine=args.crosscheck_refine,
         workers=args.workers,
         progress=None if args.quiet or not sys.stderr.isatty() else stderr_progress,
     )
@@ -332,6 +334,11 @@ def add_optimize_command(sub: Any) -> None:
         default=DEFAULT_CROSSCHECK_GRID,
         help="the Chipmunk2D check's pose grid (odd; 41 checks every cell of the default search)",
     )
+    p.add_argument(
+        "--crosscheck-refine", choices=CROSSCHECK_REFINE_MODES, default="cells",
+        help="how the check's halvings of the engine step choose their cells (xface "
+        "crosscheck --refine; cells: only those the halving before changed)",
+    )  # fmt: skip
     p.add_argument("--no-crosscheck", action="store_true", help="skip the Chipmunk2D check")
     p.add_argument("--out", required=True, help="output folder (the search resumes from it)")
     _common_study_args(p)

@@ -33,7 +33,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import numpy.typing as npt
 
-from xface_core.codes import Outcome
+from xface_core.codes import CROSSCHECK_REFINE_MODES, Outcome
 from xface_core.geometry import FaceDesign
 from xface_core.maps.grids import theta_grid, x0_grid
 from xface_core.physics import Physics
@@ -50,6 +50,7 @@ from .scene import (
 )
 
 __all__ = [
+    "REFINE_MODES",
     "CrosscheckResult",
     "Disagreement",
     "EngineMap",
@@ -73,6 +74,9 @@ INLINE_RUNS = 8
 
 #: Halvings of the step that ``converged=True`` tries at most.
 MAX_HALVINGS = 3
+
+#: How ``converged=True`` halves the step (:data:`xface_core.codes.CROSSCHECK_REFINE_MODES`).
+REFINE_MODES = CROSSCHECK_REFINE_MODES
 
 #: ``converged=True`` runs every jammed cell again with the stall speed times this: a run
 #: that only crept (a two-contact path near a fold can need hundreds of rad per D of
@@ -141,6 +145,8 @@ class CrosscheckResult:
     """``converged``: disagreeing cells found ambiguous because the sharp engine's seating
     flips within ``rounding`` of the cell's x0 (:func:`drop_knife_edges`)."""
     seconds: float = 0.0
+    refine: str = "grid"
+    """How ``converged``'s halvings chose their cells (:data:`REFINE_MODES`)."""
 
     @property
     def n_cells(self) -> int:
@@ -347,7 +353,8 @@ class EngineMap:
     sharp: tuple[EngineRun, ...]
     rounded: tuple[EngineRun, ...]
     settings: EngineSettings
-    """The settings of the runs kept (after ``converged``'s halvings, the finest)."""
+    """The settings of the runs kept (after ``converged``'s halvings, the finest; with
+    ``refine="cells"`` a cell's runs stop at the step its own last halving confirmed)."""
     rounding: float
     changed: BoolArray
     """Cells the last halving of the step still changed (ambiguous)."""
@@ -357,6 +364,8 @@ class EngineMap:
     stall_changes: int | None = None
     """Cells whose seating changed when their jams were run again at a lower stall speed
     (``converged``; None when not done)."""
+    refine: str = "grid"
+    """How the halvings chose their cells (:data:`REFINE_MODES`)."""
 
     @property
     def ambiguous(self) -> BoolArray:
@@ -384,10 +393,13 @@ def engine_map(
     settings: EngineSettings = DEFAULT_ENGINE,
     rounding: float = DEFAULT_ROUNDING,
     converged: bool = False,
+    refine: str = "grid",
     workers: int | None = None,
     progress: Progress | None = None,
 ) -> EngineMap:
     """The engine's runs over the cells (the arguments as for :func:`crosscheck`)."""
+    if refine not in REFINE_MODES:
+        raise ValueError(f"refine must be one of {REFINE_MODES}, got {refine!r}")
     phys = Physics() if physics is None else physics
     start = time.monotonic()
     x0, theta0, n_grid = _cells(grid, cells)
@@ -398,20 +410,28 @@ def engine_map(
     used = settings
     if converged:
         is_converged = False
+        active = np.arange(x0.size)  # the cells the next halving runs
         for _ in range(MAX_HALVINGS):
             # The slop goes down with the step: at a fixed slop a step of a few slops lets a
             # corner one slop deep catch at the end of its edge (seen at 1e-6 D slop below
             # 2e-5 D steps), an artefact of the pair, not of the step.
             finer = replace(used, step=used.step / 2.0, slop=used.slop / 2.0)
             f_sharp, f_rounded = _engine_pass(
-                design, phys, x0, theta0, finer, rounding, workers, progress
+                design, phys, x0[active], theta0[active], finer, rounding, workers, progress
             )
-            changed = _verdicts(f_sharp, f_rounded) != _verdicts(sharp, rounded)
-            history.append((finer.step, int(changed.sum())))
-            sharp, rounded, used = f_sharp, f_rounded, finer
-            if not changed.any():
+            before = _verdicts([sharp[i] for i in active], [rounded[i] for i in active])
+            moved = _verdicts(f_sharp, f_rounded) != before
+            for j, i in enumerate(active):
+                sharp[i], rounded[i] = f_sharp[j], f_rounded[j]
+            changed = np.zeros(x0.size, dtype=bool)
+            changed[active[moved]] = True
+            history.append((finer.step, int(moved.sum())))
+            used = finer
+            if not moved.any():
                 is_converged = True
                 break
+            if refine == "cells":
+                active = active[moved]
     result = EngineMap(
         x0=x0,
         theta0=theta0,
@@ -424,6 +444,7 @@ def engine_map(
         converged=is_converged,
         step_history=tuple(history),
         seconds=time.monotonic() - start,
+        refine=refine,
     )
     if converged:
         result = confirm_stalls(design, result, phys, workers=workers, progress=progress)
@@ -514,6 +535,7 @@ def compare_with_engine(
         converged=engine.converged,
         step_history=engine.step_history,
         stall_changes=engine.stall_changes,
+        refine=engine.refine,
         seconds=engine.seconds + time.monotonic() - start,
     )
 
@@ -567,6 +589,7 @@ def crosscheck(
     settings: EngineSettings = DEFAULT_ENGINE,
     rounding: float = DEFAULT_ROUNDING,
     converged: bool = False,
+    refine: str = "grid",
     workers: int | None = None,
     progress: Progress | None = None,
 ) -> CrosscheckResult:
@@ -589,6 +612,11 @@ def crosscheck(
         Halve the step and the slop together until the engine's map stops changing (per
         cell: ambiguous, SEATED or a failure), at most three times; cells still changing at
         the last halving count as ambiguous.
+    refine : {"grid", "cells"}
+        With ``converged``: each halving runs every cell (``"grid"``, the default) or only
+        the cells the halving before changed (``"cells"``: a cell is converged when its own
+        last halving left it as it was; the first halving still runs every cell). Their
+        maps are compared in docs/crosscheck.md.
     workers : int, optional
         Processes for the engine (default: one per core; 1 runs in this process).
     progress : callable(done, total, seconds), optional
@@ -603,7 +631,7 @@ def crosscheck(
     """
     engine = engine_map(
         design, physics, grid=grid, cells=cells, settings=settings, rounding=rounding,
-        converged=converged, workers=workers, progress=progress,
+        converged=converged, refine=refine, workers=workers, progress=progress,
     )  # fmt: skip
     result = compare_with_engine(design, engine, physics)
     if converged:
@@ -650,6 +678,7 @@ def result_json(result: CrosscheckResult) -> dict[str, object]:
         },
         "converged": result.converged,
         "step_history": [{"step": st, "changed": n} for st, n in result.step_history],
+        "refine": result.refine,
         "stall_changes": result.stall_changes,
         "knife_edges": result.knife_edges,
         "agreement": _finite_or_none(result.agreement),

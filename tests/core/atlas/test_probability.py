@@ -9,6 +9,7 @@ import pytest
 
 import xface_core as xf
 from xface_core.atlas.probability import DEFAULT_RAY_TOL, FIRST_RAYS, _adaptive_in_angle
+from xface_core.runner import count_engine_calls
 
 
 def _cov(sx: float, st: float, rho: float) -> np.ndarray:
@@ -211,3 +212,58 @@ def test_one_pose_many_covariances(coarse_v_atlas: xf.AcceptanceAtlas) -> None:
     many = xf.seat_probability(design, 0.9, -0.3, covs, atlas=coarse_v_atlas)
     ones = [xf.seat_probability(design, 0.9, -0.3, c, atlas=coarse_v_atlas) for c in covs]
     assert np.asarray(many).tolist() == ones
+
+
+@pytest.fixture(scope="module")
+def flipped_v_atlas() -> xf.AcceptanceAtlas:
+    """The V-Face atlas on the default grid with every grid-line flip bisected, as the ROS
+    node builds its own (under a second), its chords checked as the node's keeper does."""
+    atlas = xf.build_atlas(xf.v_face(0.5, 1.0), every_flip=True)
+    atlas.checked_chords()
+    return atlas
+
+
+@pytest.mark.parametrize(
+    ("x0", "theta0", "cov"),
+    [
+        (-0.72, 0.14, _cov(0.13, 0.05, -0.56)),
+        (0.9, -0.3, _cov(0.1, 0.05, 0.5)),
+        (-0.3, 0.5, _cov(0.03, 0.2, -0.6)),
+        # Narrow, on the tip of a wedge of the SEATED region that a straight line per cell
+        # cuts short: the largest error met (0.068 against 0.077; docs/atlas.md).
+        (0.95, -0.3, _cov(0.02, 0.01, 0.0)),
+    ],
+)
+def test_atlas_boundary_agrees_with_the_exact_one_without_simulating(
+    flipped_v_atlas: xf.AcceptanceAtlas, x0: float, theta0: float, cov: np.ndarray
+) -> None:
+    design = flipped_v_atlas.design
+    with count_engine_calls() as exact_calls:
+        exact = xf.seat_probability(design, x0, theta0, cov, atlas=flipped_v_atlas)
+    with count_engine_calls() as atlas_calls:
+        drawn = xf.seat_probability(
+            design, x0, theta0, cov, atlas=flipped_v_atlas, boundary="atlas"
+        )
+    assert 0.001 < exact < 0.999  # on a boundary
+    assert abs(drawn - exact) < 0.01
+    assert atlas_calls.poses < exact_calls.poses / 10
+
+
+def test_unknown_boundary_mode_is_refused(coarse_v_atlas: xf.AcceptanceAtlas) -> None:
+    with pytest.raises(xf.XfaceValueError, match="boundary must be one of"):
+        xf.seat_probability(
+            coarse_v_atlas.design, 0.0, 0.0, _cov(0.1, 0.1, 0.0), atlas=coarse_v_atlas,
+            boundary="drawn",
+        )  # fmt: skip
+
+
+def test_poses_beyond_the_mated_distance_are_not_simulated(
+    coarse_v_atlas: xf.AcceptanceAtlas,
+) -> None:
+    # L = 2.5 D: a Gaussian beyond it is OUT_OF_REACH by the engine's first rule, outside
+    # the atlas, and known without a simulation but the mean's own.
+    design = coarse_v_atlas.design
+    with count_engine_calls() as calls:
+        p = xf.seat_probability(design, 3.0, 0.0, _cov(0.1, 0.1, 0.0), atlas=coarse_v_atlas)
+    assert p == 0.0
+    assert calls.poses == 1

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 import pytest
@@ -85,3 +86,65 @@ def test_x_face_map_agrees_with_the_engine() -> None:
     assert r.false_seated == 0
     assert r.agreement >= 0.99
     assert r.n_ambiguous <= 2
+
+
+def _converged_map(cells: list[tuple[float, float]], refine: str) -> Any:
+    from xface_core.crosscheck import engine_map
+
+    return engine_map(X_FACE, cells=cells, converged=True, refine=refine, workers=1)
+
+
+def _scripted_engine(
+    monkeypatch: pytest.MonkeyPatch, seated_at: dict[int, list[bool]]
+) -> list[tuple[float, list[float]]]:
+    """Replace the engine pass with a script: cell i seats at its k-th step (0: the first,
+    1: the first halving, ...) as ``seated_at[i][k]``; returns the (step, cells' x0) of
+    every pass, in order."""
+    from xface_core.crosscheck import compare
+    from xface_core.crosscheck.scene import EngineRun
+
+    passes: list[tuple[float, list[float]]] = []
+    first = DEFAULT_ENGINE.step
+
+    def fake(design, physics, x0, theta0, settings, rounding, workers, progress):  # type: ignore[no-untyped-def]
+        passes.append((settings.step, [float(x) for x in x0]))
+        k = round(math.log2(first / settings.step))
+        seats = [seated_at[int(x)][k] for x in x0]
+        outcomes = [xf.Outcome.SEATED if s else xf.Outcome.BAD_MATE for s in seats]
+        runs = [EngineRun(o, "", 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1, False) for o in outcomes]
+        return runs, list(runs)
+
+    monkeypatch.setattr(compare, "_engine_pass", fake)
+    return passes
+
+
+def test_refining_cells_runs_each_halving_on_the_cells_the_last_one_changed(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # Cell 0 never changes, cell 1 changes at the first halving only, cell 2 at the first
+    # two: the grid mode runs all three at every halving, the cells mode only the changing.
+    script = {0: [True] * 4, 1: [False, True, True, True], 2: [False, True, False, False]}
+    cells = [(float(i), 0.0) for i in script]
+    passes = _scripted_engine(monkeypatch, script)
+    by_cell = _converged_map(cells, "cells")
+    assert [len(xs) for _, xs in passes] == [3, 3, 2, 1]
+    assert passes[2][1] == [1.0, 2.0]
+    assert passes[3][1] == [2.0]
+    assert by_cell.step_history == tuple(
+        (DEFAULT_ENGINE.step / 2**k, n) for k, n in ((1, 2), (2, 1), (3, 0))
+    )
+    assert by_cell.converged is True
+    assert [r.outcome for r in by_cell.sharp] == [xf.Outcome.SEATED, xf.Outcome.SEATED,
+                                                  xf.Outcome.BAD_MATE]  # fmt: skip
+    passes.clear()
+    by_grid = _converged_map(cells, "grid")
+    assert [len(xs) for _, xs in passes] == [3, 3, 3, 3]
+    # Here the cells that stopped were already at their final answer: both maps agree.
+    assert [r.outcome for r in by_grid.sharp] == [r.outcome for r in by_cell.sharp]
+    assert by_cell.refine == "cells"
+    assert by_grid.refine == "grid"
+
+
+def test_an_unknown_refine_mode_is_refused() -> None:
+    with pytest.raises(ValueError, match="refine must be one of"):
+        _converged_map([(0.0, 0.0)], "some")

@@ -41,7 +41,7 @@ def test_counting_counts_rays() -> None:
     counter = bench.Counting()
     design = xf.v_face(0.5, 1.0)
     atlas = build_atlas(design, lateral_step=1 / 16, angle_step=0.05)
-    counter.masses(atlas, (0.0, 0.0), np.eye(2) * 0.01, True, np.zeros(4), 8, 2)
+    counter.masses(atlas, (0.0, 0.0), np.eye(2) * 0.01, True, np.zeros(4), 8, 2, "exact")
     assert counter.rays == 4
 
 
@@ -55,8 +55,13 @@ def test_a_small_run_prints_every_setting_and_restores_the_module(
     assert probability._ray_masses is before
     rows = [line for line in out.splitlines() if line.startswith("| ") and "even" in line]
     assert len(rows) == len(bench.RAYS) * len(bench.STEPS)
-    assert sum("adaptive" in line for line in out.splitlines()) == len(bench.RAY_TOLS)
-    assert "largest error at the defaults" in out
+    adaptive = [line for line in out.splitlines() if line.startswith("| adaptive")]
+    assert sum("| exact |" in line for line in adaptive) == len(bench.RAY_TOLS)
+    assert sum("| atlas |" in line for line in adaptive) == len(bench.RAY_TOLS) * len(
+        bench.ATLAS_STEPS
+    )
+    assert f"largest error at {bench.DEFAULT}" in out
+    assert f"largest error at {bench.NODE}" in out
 
 
 @pytest.mark.slow
