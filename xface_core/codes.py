@@ -11,7 +11,7 @@ from __future__ import annotations
 from enum import IntEnum
 
 __all__ = [
-    "CROSSCHECK_REFINE_MODES",
+    "CROSSCHECK_CONVERGE_BY",
     "REASON_TEXT",
     "EventKind",
     "Outcome",
@@ -134,9 +134,9 @@ class SlipState(IntEnum):
     STICK = 2
 
 
-#: How a converged cross-check halves the engine's step (``crosscheck(refine=...)``, ``xface
-#: crosscheck --refine``): ``"grid"`` runs every cell at each halving until one changes
+#: How a converged cross-check halves the engine's step (``crosscheck(converge_by=...)``, ``xface
+#: crosscheck --converge-by``): ``"grid"`` runs every cell at each halving until one changes
 #: none; ``"cells"`` runs at each halving only the cells the halving before changed (each
 #: cell is converged when its own last halving left it as it was). Here, not in the
 #: crosscheck package, because the command line offers them without importing the engine.
-CROSSCHECK_REFINE_MODES = ("grid", "cells")
+CROSSCHECK_CONVERGE_BY = ("grid", "cells")

@@ -45,7 +45,7 @@ from typing import Any
 
 import numpy as np
 
-from xface_core.codes import CROSSCHECK_REFINE_MODES, Outcome
+from xface_core.codes import CROSSCHECK_CONVERGE_BY, Outcome
 from xface_core.errors import XfaceError, XfaceValueError
 from xface_core.facefile import load_face
 from xface_core.frames import NotFacingError, check_facing
@@ -803,6 +803,8 @@ def _cmd_crosscheck(args: argparse.Namespace) -> int:
     design = _design(args)
     if args.grid is not None and args.grid < 3:
         raise XfaceValueError(f"--grid must be an odd integer >= 3, got {args.grid}")
+    if args.converge_by != "grid" and not args.converged:
+        raise XfaceValueError(f"--converge-by {args.converge_by} needs --converged")
     settings = DEFAULT_ENGINE
     if args.step is not None:
         # The slop keeps its ratio to the step (docs/crosscheck.md: step / slop = 100).
@@ -815,7 +817,7 @@ def _cmd_crosscheck(args: argparse.Namespace) -> int:
         cells=_crosscheck_cells(args),
         settings=settings,
         converged=args.converged,
-        refine=args.refine,
+        converge_by=args.converge_by,
         workers=args.workers,
         progress=None if args.quiet else stderr_progress,
     )
@@ -843,7 +845,7 @@ def _crosscheck_lines(r: Any) -> list[str]:
             f"sharp and {r.rounding:g} D rounded corners"
         ),
     ]
-    only = " (only the cells the halving before changed)" if r.refine == "cells" else ""
+    only = " (only the cells the halving before changed)" if r.converge_by == "cells" else ""
     for n, (step, changed) in enumerate(r.step_history):
         lines.append(
             f"          step (and slop) halved to {step:g} D: {changed} cells changed"
@@ -1062,7 +1064,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--converged", action="store_true", help="halve the step until the map stops changing"
     )
     p.add_argument(
-        "--refine", choices=CROSSCHECK_REFINE_MODES, default="grid",
+        "--converge-by", choices=CROSSCHECK_CONVERGE_BY, default="grid",
         help="with --converged: each halving runs every cell (grid) or only the cells the "
         "halving before changed (cells: faster)",
     )  # fmt: skip

@@ -27,7 +27,7 @@ from functools import partial
 from pathlib import Path
 from typing import Any
 
-from xface_core.codes import CROSSCHECK_REFINE_MODES
+from xface_core.codes import CROSSCHECK_CONVERGE_BY
 from xface_core.errors import XfaceValueError
 from xface_core.facefile import save_face
 from xface_core.geometry import FaceDesign, x_face
@@ -201,7 +201,7 @@ def _crosscheck(
         physics,
         grid=args.crosscheck_grid,
         converged=True,
-        refine=args.crosscheck_refine,
+        converge_by=args.crosscheck_converge_by,
         workers=args.workers,
         progress=None if args.quiet or not sys.stderr.isatty() else stderr_progress,
     )
@@ -335,9 +335,10 @@ def add_optimize_command(sub: Any) -> None:
         help="the Chipmunk2D check's pose grid (odd; 41 checks every cell of the default search)",
     )
     p.add_argument(
-        "--crosscheck-refine", choices=CROSSCHECK_REFINE_MODES, default="cells",
+        "--crosscheck-converge-by", choices=CROSSCHECK_CONVERGE_BY, default="grid",
         help="how the check's halvings of the engine step choose their cells (xface "
-        "crosscheck --refine; cells: only those the halving before changed)",
+        "crosscheck --converge-by; cells: only those the halving before changed: faster, "
+        "less strict)",
     )  # fmt: skip
     p.add_argument("--no-crosscheck", action="store_true", help="skip the Chipmunk2D check")
     p.add_argument("--out", required=True, help="output folder (the search resumes from it)")

@@ -33,7 +33,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import numpy.typing as npt
 
-from xface_core.codes import CROSSCHECK_REFINE_MODES, Outcome
+from xface_core.codes import CROSSCHECK_CONVERGE_BY, Outcome
 from xface_core.geometry import FaceDesign
 from xface_core.maps.grids import theta_grid, x0_grid
 from xface_core.physics import Physics
@@ -50,7 +50,7 @@ from .scene import (
 )
 
 __all__ = [
-    "REFINE_MODES",
+    "CONVERGE_BY",
     "CrosscheckResult",
     "Disagreement",
     "EngineMap",
@@ -75,8 +75,8 @@ INLINE_RUNS = 8
 #: Halvings of the step that ``converged=True`` tries at most.
 MAX_HALVINGS = 3
 
-#: How ``converged=True`` halves the step (:data:`xface_core.codes.CROSSCHECK_REFINE_MODES`).
-REFINE_MODES = CROSSCHECK_REFINE_MODES
+#: How ``converged=True`` halves the step (:data:`xface_core.codes.CROSSCHECK_CONVERGE_BY`).
+CONVERGE_BY = CROSSCHECK_CONVERGE_BY
 
 #: ``converged=True`` runs every jammed cell again with the stall speed times this: a run
 #: that only crept (a two-contact path near a fold can need hundreds of rad per D of
@@ -145,8 +145,8 @@ class CrosscheckResult:
     """``converged``: disagreeing cells found ambiguous because the sharp engine's seating
     flips within ``rounding`` of the cell's x0 (:func:`drop_knife_edges`)."""
     seconds: float = 0.0
-    refine: str = "grid"
-    """How ``converged``'s halvings chose their cells (:data:`REFINE_MODES`)."""
+    converge_by: str = "grid"
+    """How ``converged``'s halvings chose their cells (:data:`CONVERGE_BY`)."""
 
     @property
     def n_cells(self) -> int:
@@ -354,7 +354,7 @@ class EngineMap:
     rounded: tuple[EngineRun, ...]
     settings: EngineSettings
     """The settings of the runs kept (after ``converged``'s halvings, the finest; with
-    ``refine="cells"`` a cell's runs stop at the step its own last halving confirmed)."""
+    ``converge_by="cells"`` a cell's runs stop at the step its own last halving confirmed)."""
     rounding: float
     changed: BoolArray
     """Cells the last halving of the step still changed (ambiguous)."""
@@ -364,8 +364,8 @@ class EngineMap:
     stall_changes: int | None = None
     """Cells whose seating changed when their jams were run again at a lower stall speed
     (``converged``; None when not done)."""
-    refine: str = "grid"
-    """How the halvings chose their cells (:data:`REFINE_MODES`)."""
+    converge_by: str = "grid"
+    """How the halvings chose their cells (:data:`CONVERGE_BY`)."""
 
     @property
     def ambiguous(self) -> BoolArray:
@@ -393,13 +393,13 @@ def engine_map(
     settings: EngineSettings = DEFAULT_ENGINE,
     rounding: float = DEFAULT_ROUNDING,
     converged: bool = False,
-    refine: str = "grid",
+    converge_by: str = "grid",
     workers: int | None = None,
     progress: Progress | None = None,
 ) -> EngineMap:
     """The engine's runs over the cells (the arguments as for :func:`crosscheck`)."""
-    if refine not in REFINE_MODES:
-        raise ValueError(f"refine must be one of {REFINE_MODES}, got {refine!r}")
+    if converge_by not in CONVERGE_BY:
+        raise ValueError(f"converge_by must be one of {CONVERGE_BY}, got {converge_by!r}")
     phys = Physics() if physics is None else physics
     start = time.monotonic()
     x0, theta0, n_grid = _cells(grid, cells)
@@ -430,7 +430,7 @@ def engine_map(
             if not moved.any():
                 is_converged = True
                 break
-            if refine == "cells":
+            if converge_by == "cells":
                 active = active[moved]
     result = EngineMap(
         x0=x0,
@@ -444,7 +444,7 @@ def engine_map(
         converged=is_converged,
         step_history=tuple(history),
         seconds=time.monotonic() - start,
-        refine=refine,
+        converge_by=converge_by,
     )
     if converged:
         result = confirm_stalls(design, result, phys, workers=workers, progress=progress)
@@ -535,7 +535,7 @@ def compare_with_engine(
         converged=engine.converged,
         step_history=engine.step_history,
         stall_changes=engine.stall_changes,
-        refine=engine.refine,
+        converge_by=engine.converge_by,
         seconds=engine.seconds + time.monotonic() - start,
     )
 
@@ -589,7 +589,7 @@ def crosscheck(
     settings: EngineSettings = DEFAULT_ENGINE,
     rounding: float = DEFAULT_ROUNDING,
     converged: bool = False,
-    refine: str = "grid",
+    converge_by: str = "grid",
     workers: int | None = None,
     progress: Progress | None = None,
 ) -> CrosscheckResult:
@@ -612,7 +612,7 @@ def crosscheck(
         Halve the step and the slop together until the engine's map stops changing (per
         cell: ambiguous, SEATED or a failure), at most three times; cells still changing at
         the last halving count as ambiguous.
-    refine : {"grid", "cells"}
+    converge_by : {"grid", "cells"}
         With ``converged``: each halving runs every cell (``"grid"``, the default) or only
         the cells the halving before changed (``"cells"``: a cell is converged when its own
         last halving left it as it was; the first halving still runs every cell). Their
@@ -631,7 +631,7 @@ def crosscheck(
     """
     engine = engine_map(
         design, physics, grid=grid, cells=cells, settings=settings, rounding=rounding,
-        converged=converged, refine=refine, workers=workers, progress=progress,
+        converged=converged, converge_by=converge_by, workers=workers, progress=progress,
     )  # fmt: skip
     result = compare_with_engine(design, engine, physics)
     if converged:
@@ -678,7 +678,7 @@ def result_json(result: CrosscheckResult) -> dict[str, object]:
         },
         "converged": result.converged,
         "step_history": [{"step": st, "changed": n} for st, n in result.step_history],
-        "refine": result.refine,
+        "converge_by": result.converge_by,
         "stall_changes": result.stall_changes,
         "knife_edges": result.knife_edges,
         "agreement": _finite_or_none(result.agreement),

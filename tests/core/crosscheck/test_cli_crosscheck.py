@@ -35,8 +35,10 @@ def test_json_report(capsys: pytest.CaptureFixture[str]) -> None:
 
 
 @pytest.mark.parametrize(
-    "argv", [["--cells", "0"], ["--grid", "1"], ["--friction", "-1"], ["--step", "0"]]
-)
+    "argv",
+    [["--cells", "0"], ["--grid", "1"], ["--friction", "-1"], ["--step", "0"],
+     ["--converge-by", "cells"]],
+)  # fmt: skip
 def test_bad_arguments_exit_2(argv: list[str], capsys: pytest.CaptureFixture[str]) -> None:
     assert main([*ARGS, *argv]) == 2
     assert capsys.readouterr().err.startswith("xface: error: ")
@@ -78,3 +80,11 @@ def test_without_the_extra_it_says_what_to_install(tmp_path: Path) -> None:
         "pip install '.[crosscheck]' in the xface checkout\n"
     )
     assert result.stdout == ""
+
+
+def test_the_json_says_how_the_step_was_converged(capsys: pytest.CaptureFixture[str]) -> None:
+    argv = [*ARGS, "--cells", "1", "--converged", "--converge-by", "cells", "--json"]
+    assert main(argv) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["converge_by"] == "cells"
+    assert out["converged"] in (True, False)

@@ -88,10 +88,10 @@ def test_x_face_map_agrees_with_the_engine() -> None:
     assert r.n_ambiguous <= 2
 
 
-def _converged_map(cells: list[tuple[float, float]], refine: str) -> Any:
+def _converged_map(cells: list[tuple[float, float]], converge_by: str) -> Any:
     from xface_core.crosscheck import engine_map
 
-    return engine_map(X_FACE, cells=cells, converged=True, refine=refine, workers=1)
+    return engine_map(X_FACE, cells=cells, converged=True, converge_by=converge_by, workers=1)
 
 
 def _scripted_engine(
@@ -141,10 +141,10 @@ def test_refining_cells_runs_each_halving_on_the_cells_the_last_one_changed(
     assert [len(xs) for _, xs in passes] == [3, 3, 3, 3]
     # Here the cells that stopped were already at their final answer: both maps agree.
     assert [r.outcome for r in by_grid.sharp] == [r.outcome for r in by_cell.sharp]
-    assert by_cell.refine == "cells"
-    assert by_grid.refine == "grid"
+    assert by_cell.converge_by == "cells"
+    assert by_grid.converge_by == "grid"
 
 
-def test_an_unknown_refine_mode_is_refused() -> None:
-    with pytest.raises(ValueError, match="refine must be one of"):
+def test_an_unknown_converge_by_is_refused() -> None:
+    with pytest.raises(ValueError, match="converge_by must be one of"):
         _converged_map([(0.0, 0.0)], "some")
