@@ -232,7 +232,7 @@ def _summary(
     written: list[str],
 ) -> dict[str, Any]:
     column = CRITERIA[args.criterion]
-    gain = found.score / found.start_score - 1.0 if found.start_score > 0 else None
+    gain = found.score / found.x_face_score - 1.0 if found.x_face_score > 0 else None
     workers = args.workers if args.workers is not None else (os.cpu_count() or 1)
     rate = found.simulated / found.evaluation_seconds if found.evaluation_seconds > 0 else None
     return {
@@ -252,7 +252,8 @@ def _summary(
         "seconds": found.seconds,
         "evaluations_per_second": rate,
         "workers": None if args.scheduler else workers,
-        "x_face": {"score": found.start_score, "M": maps[0].M, "row": found.start},
+        "x_face": {"score": found.x_face_score, "M": maps[0].M, "row": found.x_face},
+        "start": {"score": found.start_score, "row": found.start},
         "best": {
             "name": found.best_design.display_name,
             "score": found.score,
@@ -283,7 +284,13 @@ def _summary_lines(found: FaceSearch, s: dict[str, Any]) -> list[str]:
             f"run, {s['restarts']} restarts), {s['seconds']:.0f} s"
             + (f", {rate:.1f} evaluations/s {where}" if rate else "")
         ),
-        f"X-Face   H/D {f.h_over_d:g} r_p {f.r_p:g}: {s['column']} = {found.start_score:g}",
+        f"X-Face   H/D {f.h_over_d:g} r_p {f.r_p:g}: {s['column']} = {found.x_face_score:g}"
+        + (
+            f" (the family's start, {f.layers} layer{'s' if f.layers > 1 else ''}: "
+            f"{found.start_score:g})"
+            if found.start is not found.x_face
+            else ""
+        ),
         f"best     {s['column']} = {found.score:g}"
         + (
             f" ({100 * s['best']['gain']:+.1f} % against the X-Face)"

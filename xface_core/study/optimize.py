@@ -293,6 +293,10 @@ class FaceSearch:
     best_design: FaceDesign
     best: dict[str, Any]
     start: dict[str, Any]
+    """The row of the family's start point (:meth:`ProfileFamily.x_face_point`)."""
+    x_face: dict[str, Any]
+    """The row of the X-Face itself: ``start`` when the family holds it (two mirrored
+    layers), else the face the gain is measured against all the same."""
     evaluations: int
     """Candidates the optimiser asked for (its budget counts these)."""
     simulated: int
@@ -313,6 +317,22 @@ class FaceSearch:
     @property
     def start_score(self) -> float:
         return float(self.start[CRITERIA[self.criterion]])
+
+    @property
+    def x_face_score(self) -> float:
+        return float(self.x_face[CRITERIA[self.criterion]])
+
+
+def _same_polygons(a: FaceDesign, b: FaceDesign) -> bool:
+    """The same layers, vertex for vertex (a custom copy of a built-in face is not the same
+    study row: its digest holds the kind, but it docks the same)."""
+    if len(a.base_layers) != len(b.base_layers) or len(a.moving_layers) != len(b.moving_layers):
+        return False
+    pairs = [
+        *zip(a.base_layers, b.base_layers, strict=True),
+        *zip(a.moving_layers, b.moving_layers, strict=True),
+    ]
+    return all(p.shape == q.shape and np.array_equal(p, q) for p, q in pairs)
 
 
 def _score(row: dict[str, Any], criterion: Criterion) -> float:
@@ -397,6 +417,13 @@ def optimize_face(
 
         x_point = family.x_face_point()
         start = evaluate([family.design(x_point)])[0]
+        # The gain is against the X-Face, which a family of one layer does not hold.
+        reference = x_face(family.h_over_d, family.r_p)
+        x_face_row = (
+            start
+            if _same_polygons(reference, family.design(x_point))
+            else (evaluate([reference])[0])
+        )
         best = (_score(start, criterion), x_point, start)
         history: list[tuple[int, float]] = [(0, best[0])]
         evaluations, restarts, reasons = 0, 0, []
@@ -437,6 +464,7 @@ def optimize_face(
         best_design=family.design(best[1], name=name),
         best=best[2],
         start=start,
+        x_face=x_face_row,
         evaluations=evaluations,
         simulated=clock.simulated,
         restarts=restarts,

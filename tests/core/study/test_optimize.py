@@ -164,3 +164,22 @@ def test_the_seat_probability_criterion_ranks_by_the_mean_seat_probability(tmp_p
     )
     assert found.score == found.best["seat_probability"]
     assert 0.0 < found.score <= 1.0
+
+
+def test_two_layers_measure_the_gain_against_their_own_start(whole: FaceSearch) -> None:
+    assert whole.x_face is whole.start
+    assert whole.x_face_score == whole.start_score
+
+
+def test_one_layer_measures_the_gain_against_the_x_face_itself(tmp_path: Path) -> None:
+    # A family of one layer does not hold the X-Face (two mirrored layers): its start is the
+    # X-Face's first layer alone, and the gain is still against the X-Face.
+    family = ProfileFamily(0.5, 2.0, vertices=2, layers=1)
+    found = optimize_face(family, tmp_path, grid=GRID, budget=6, workers=1, popsize=6)
+    assert found.x_face is not found.start
+    assert found.x_face["M"] == xf.acceptance_map(xf.x_face(0.5, 2.0), grid=GRID, threads=1).M
+    assert found.start["M"] == xf.acceptance_map(_start_of(family), grid=GRID, threads=1).M
+
+
+def _start_of(family: ProfileFamily) -> xf.FaceDesign:
+    return family.design(family.x_face_point())
