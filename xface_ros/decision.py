@@ -291,11 +291,17 @@ def _with_probability(
             return replace(decision, accepted=False, why=why)
         return decision
     matrix = ((cov[0], cov[1]), (cov[2], cov[3]))
-    p = seat_probability(
-        config.design, start.x0, start.theta0, matrix, physics=config.physics,
-        atlas=atlas, boundary=SEAT_BOUNDARY,
-    )  # fmt: skip
-    p = float(p)
+    p = float(
+        seat_probability(
+            config.design,
+            start.x0,
+            start.theta0,
+            matrix,
+            physics=config.physics,
+            atlas=atlas,
+            boundary=SEAT_BOUNDARY,
+        )
+    )
     decision = replace(decision, seat_probability=p)
     if level <= 0.0 or p >= level:
         return decision

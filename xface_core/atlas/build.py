@@ -311,28 +311,27 @@ class AcceptanceAtlas:
         seated.flags.writeable = False
         return seated
 
-    def _cells(
+    def _corner_verdicts(
         self, x: FloatArray, t: FloatArray
-    ) -> tuple[npt.NDArray[np.intp], npt.NDArray[np.intp], npt.NDArray[np.bool_]]:
-        """Lower-left node (i, k) of each pose's cell (clipped) and whether it lies inside."""
-        u = (x - self.x0[0]) / self.lateral_step
-        v = (t - self.theta0[0]) / self.angle_step
-        inside = (u >= 0.0) & (u <= self.x0.size - 1) & (v >= 0.0) & (v <= self.theta0.size - 1)
-        i = np.clip(np.floor(np.where(inside, u, 0.0)), 0, self.x0.size - 2).astype(np.intp)
-        k = np.clip(np.floor(np.where(inside, v, 0.0)), 0, self.theta0.size - 2).astype(np.intp)
-        return i, k, inside
-
-    def seated_in_cell(self, x0_d: npt.ArrayLike, theta0: npt.ArrayLike) -> npt.NDArray[np.int8]:
-        """Per pose: 1 when its cell's four corners all seat, 0 when none does, -1 when they
-        disagree or the pose lies outside the grid (an exact simulation must decide)."""
-        x = np.asarray(x0_d, dtype=np.float64)
-        t = np.asarray(theta0, dtype=np.float64)
-        i, k, inside = self._cells(x, t)
+    ) -> tuple[
+        npt.NDArray[np.int8], npt.NDArray[np.intp], npt.NDArray[np.intp], npt.NDArray[np.bool_]
+    ]:
+        """:meth:`seated_in_cell` of poses (D, rad), with their cells' lower-left nodes and
+        whether they lie inside the grid."""
+        i, k = self.cell_index(x, t)
+        inside = self.covers(x, t)
         s = self._seated_nodes
         corners = s[i, k] + s[i + 1, k] + s[i, k + 1] + s[i + 1, k + 1]
         out = np.where(corners == 4, 1, np.where(corners == 0, 0, -1)).astype(np.int8)
         out[~inside] = -1
-        return out
+        return out, i, k, inside
+
+    def seated_in_cell(self, x0_d: npt.ArrayLike, theta0: npt.ArrayLike) -> npt.NDArray[np.int8]:
+        """Per pose: 1 when its cell's four corners all seat, 0 when none does, -1 when they
+        disagree or the pose lies outside the grid (an exact simulation must decide)."""
+        return self._corner_verdicts(
+            np.asarray(x0_d, dtype=np.float64), np.asarray(theta0, dtype=np.float64)
+        )[0]
 
     def seated_by_flips(self, x0_d: npt.ArrayLike, theta0: npt.ArrayLike) -> npt.NDArray[np.int8]:
         """As :meth:`seated_in_cell`, and in a cell whose corners disagree the side of the
@@ -348,14 +347,13 @@ class AcceptanceAtlas:
         that costs a seat probability is measured in docs/atlas.md."""
         x = np.asarray(x0_d, dtype=np.float64)
         t = np.asarray(theta0, dtype=np.float64)
-        out = self.seated_in_cell(x, t)
-        x, t, flat = x.ravel(), t.ravel(), out.reshape(-1)
-        i, k, inside = self._cells(x, t)
-        mixed = np.nonzero((flat < 0) & inside)[0]
+        out, i, k, inside = self._corner_verdicts(x, t)
+        flat = out.reshape(-1)
+        mixed = np.nonzero((flat < 0) & inside.reshape(-1))[0]
         if mixed.size == 0:
             return out
-        i, k = i[mixed], k[mixed]
-        side = self._chord_side(x[mixed], t[mixed], i, k)
+        i, k = i.reshape(-1)[mixed], k.reshape(-1)[mixed]
+        side = self._chord_side(x.reshape(-1)[mixed], t.reshape(-1)[mixed], i, k)
         flat[mixed] = np.where(self.checked_chords()[i, k], side, -1)
         return out
 

@@ -50,7 +50,6 @@ from .scene import (
 )
 
 __all__ = [
-    "CONVERGE_BY",
     "CrosscheckResult",
     "Disagreement",
     "EngineMap",
@@ -74,9 +73,6 @@ INLINE_RUNS = 8
 
 #: Halvings of the step that ``converged=True`` tries at most.
 MAX_HALVINGS = 3
-
-#: How ``converged=True`` halves the step (:data:`xface_core.codes.CROSSCHECK_CONVERGE_BY`).
-CONVERGE_BY = CROSSCHECK_CONVERGE_BY
 
 #: ``converged=True`` runs every jammed cell again with the stall speed times this: a run
 #: that only crept (a two-contact path near a fold can need hundreds of rad per D of
@@ -146,7 +142,8 @@ class CrosscheckResult:
     flips within ``rounding`` of the cell's x0 (:func:`drop_knife_edges`)."""
     seconds: float = 0.0
     converge_by: str = "grid"
-    """How ``converged``'s halvings chose their cells (:data:`CONVERGE_BY`)."""
+    """How ``converged``'s halvings chose their cells
+    (:data:`xface_core.codes.CROSSCHECK_CONVERGE_BY`)."""
 
     @property
     def n_cells(self) -> int:
@@ -365,7 +362,7 @@ class EngineMap:
     """Cells whose seating changed when their jams were run again at a lower stall speed
     (``converged``; None when not done)."""
     converge_by: str = "grid"
-    """How the halvings chose their cells (:data:`CONVERGE_BY`)."""
+    """How the halvings chose their cells (:data:`~xface_core.codes.CROSSCHECK_CONVERGE_BY`)."""
 
     @property
     def ambiguous(self) -> BoolArray:
@@ -398,8 +395,10 @@ def engine_map(
     progress: Progress | None = None,
 ) -> EngineMap:
     """The engine's runs over the cells (the arguments as for :func:`crosscheck`)."""
-    if converge_by not in CONVERGE_BY:
-        raise ValueError(f"converge_by must be one of {CONVERGE_BY}, got {converge_by!r}")
+    if converge_by not in CROSSCHECK_CONVERGE_BY:
+        raise ValueError(
+            f"converge_by must be one of {CROSSCHECK_CONVERGE_BY}, got {converge_by!r}"
+        )
     phys = Physics() if physics is None else physics
     start = time.monotonic()
     x0, theta0, n_grid = _cells(grid, cells)
