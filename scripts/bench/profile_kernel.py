@@ -80,7 +80,11 @@ def _run(args: argparse.Namespace, argv: list[str]) -> int:
 
     makers = {"X": xf.x_face, "V": xf.v_face, "S": xf.s_face}
     design = makers[args.face](args.h_over_d, args.r_p)
-    x, t = np.meshgrid(x0_grid(41), theta_grid(41), indexing="ij")
+    if args.poses is None:
+        x, t = np.meshgrid(x0_grid(41), theta_grid(41), indexing="ij")
+    else:  # x0 (D) and theta0 (rad) of the poses to profile: scaled to the design's width
+        with np.load(args.poses) as poses:
+            x, t = poses["x0"] * design.width, poses["theta0"]
     xf.predict_batch(design, x, t, threads=1)  # compiles
     n = write_perf_map(engine.simulate_many, engine, Path(f"/tmp/perf-{os.getpid()}.map"))
     print(f"perf map: {n} engine functions", file=sys.stderr)
@@ -89,7 +93,7 @@ def _run(args: argparse.Namespace, argv: list[str]) -> int:
     while time.perf_counter() - t0 < args.seconds:
         xf.predict_batch(design, x, t, threads=1)
         maps += 1
-    print(f"{maps} maps in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
+    print(f"{maps} batches of {x.size} poses in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
     return 0
 
 
@@ -138,6 +142,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--h-over-d", type=float, default=0.5)
     parser.add_argument("--r-p", type=float, default=1.0)
     parser.add_argument("--seconds", type=float, default=30.0, help="time spent in maps")
+    parser.add_argument(
+        "--poses", type=Path,
+        help="profile these poses instead of maps: an .npz with arrays x0 (D) and theta0 (rad)",
+    )  # fmt: skip
     parser.add_argument("--report", type=Path, help="print the shares of a recorded profile")
     argv = sys.argv[1:] if argv is None else argv
     args = parser.parse_args(argv)

@@ -8,6 +8,8 @@ import math
 import numpy as np
 import pytest
 import shapely
+from hypothesis import given
+from hypothesis import strategies as st
 
 import xface_core as xf
 from xface_core.crosscheck.scene import (
@@ -163,3 +165,64 @@ def test_an_exhausted_budget_is_unresolved_not_a_slip() -> None:
     run = run_cell(X_FACE, 0.3, 0.2, settings=tight)
     assert run.outcome is xf.Outcome.UNRESOLVED
     assert run.hit_budget
+
+
+# --- the stepping loop's shortcuts ------------------------------------------------------------
+
+
+def _step_through_space_only(space: object) -> object:
+    def step_each(dt: float, n: int) -> None:
+        for _ in range(n):
+            space.step(dt)  # type: ignore[attr-defined]
+
+    return step_each
+
+
+@pytest.mark.parametrize(
+    ("design", "physics", "pose"),
+    [
+        (X_FACE, xf.Physics(), (0.3, 0.2)),
+        (xf.v_face(0.5, 1.0), xf.Physics(friction=0.3), (-0.1, -0.2)),
+        (xf.s_face(0.5, 1.0), xf.Physics(damping_ratio=2.0), (0.1, 0.3)),
+    ],
+)
+def test_stepping_through_the_c_step_changes_no_bit_of_a_run(
+    monkeypatch: pytest.MonkeyPatch,
+    design: xf.FaceDesign,
+    physics: xf.Physics,
+    pose: tuple[float, float],
+) -> None:
+    from xface_core.crosscheck import scene
+
+    for settings in (DEFAULT_ENGINE, DEFAULT_ENGINE.rounded()):
+        fast = run_cell(design, *pose, physics=physics, settings=settings)
+        with monkeypatch.context() as patched:
+            patched.setattr(scene, "_stepper", _step_through_space_only)
+            wrapped = run_cell(design, *pose, physics=physics, settings=settings)
+        assert fast == wrapped
+        assert fast.steps > 2 * settings.check_every  # stepped in batches, not ended at once
+
+
+@given(
+    st.lists(
+        st.tuples(*(st.floats(-10.0, 10.0, allow_nan=False) for _ in range(3))),
+        min_size=1,
+        max_size=40,
+    ),
+    st.integers(1, 6),
+)
+def test_the_stall_window_moves_as_the_mean_of_its_two_halves(
+    states: list[tuple[float, float, float]], half: int
+) -> None:
+    from xface_core.crosscheck.scene import _StallWindow
+
+    window = _StallWindow(half)
+    for state in states:
+        window.push(*state)
+    last = np.asarray(states[-2 * half :])
+    assert window.full == (len(states) >= 2 * half)
+    if window.full:
+        dy, db, dm = last[half:].mean(axis=0) - last[:half].mean(axis=0)
+        assert window.moved((2.0, 3.0)) == math.sqrt(dy * dy + 2.0 * db * db + 3.0 * dm * dm)
+    window.clear()
+    assert not window.full
