@@ -86,12 +86,35 @@ def _family(args: argparse.Namespace) -> ProfileFamily:
     )
 
 
-def _optimize(args: argparse.Namespace) -> int:
-    family = _family(args)
+def _crosscheck_settings(args: argparse.Namespace) -> None:
+    """Check the cross-check's options and fill in their defaults: set with
+    ``--no-crosscheck`` they would be ignored without a word, so they are refused."""
+    given = [
+        flag
+        for flag, value in (
+            ("--crosscheck-grid", args.crosscheck_grid),
+            ("--crosscheck-converge-by", args.crosscheck_converge_by),
+        )
+        if value is not None
+    ]
+    if args.no_crosscheck and given:
+        raise XfaceValueError(
+            f"{' and '.join(given)} set how the Chipmunk2D check runs, and --no-crosscheck "
+            "skips it: drop one or the other"
+        )
+    if args.crosscheck_grid is None:
+        args.crosscheck_grid = DEFAULT_CROSSCHECK_GRID
+    if args.crosscheck_converge_by is None:
+        args.crosscheck_converge_by = CROSSCHECK_CONVERGE_BY[0]  # grid: the strict one
     if args.crosscheck_grid < 3 or args.crosscheck_grid % 2 == 0:
         raise XfaceValueError(
             f"--crosscheck-grid must be an odd integer >= 3, got {args.crosscheck_grid}"
         )
+
+
+def _optimize(args: argparse.Namespace) -> int:
+    family = _family(args)
+    _crosscheck_settings(args)
     noise = _noise(args)
     physics = Physics(damping_ratio=args.damping_ratio, friction=args.friction)
     width = x_face(1.0, 1.0, width=args.width).width  # checked before the search runs
@@ -338,14 +361,14 @@ def add_optimize_command(sub: Any) -> None:
     p.add_argument(
         "--crosscheck-grid",
         type=int,
-        default=DEFAULT_CROSSCHECK_GRID,
-        help="the Chipmunk2D check's pose grid (odd; 41 checks every cell of the default search)",
+        help=f"the Chipmunk2D check's pose grid (odd; default {DEFAULT_CROSSCHECK_GRID}; 41 checks "
+        "every cell of the default search)",
     )
     p.add_argument(
-        "--crosscheck-converge-by", choices=CROSSCHECK_CONVERGE_BY, default="grid",
+        "--crosscheck-converge-by", choices=CROSSCHECK_CONVERGE_BY,
         help="how the check's halvings of the engine step choose their cells (xface "
-        "crosscheck --converge-by; cells: only those the halving before changed: faster, "
-        "less strict)",
+        "crosscheck --converge-by; default grid; cells: only those the halving before "
+        "changed: faster, less strict)",
     )  # fmt: skip
     p.add_argument("--no-crosscheck", action="store_true", help="skip the Chipmunk2D check")
     p.add_argument("--out", required=True, help="output folder (the search resumes from it)")

@@ -16,7 +16,8 @@ from xface_core.cli import main
 from xface_core.facefile import load_face
 
 SMALL = ["--grid", "7", "--budget", "12", "--popsize", "6", "--vertices", "2", "--workers", "1"]
-SMALL += ["--crosscheck-grid", "5"]
+#: The cross-check of a small search: 5 x 5 poses.
+CHECK_SMALL = ["--crosscheck-grid", "5"]
 
 
 @pytest.fixture(scope="module")
@@ -24,7 +25,7 @@ def searched(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict[str, 
     out = tmp_path_factory.mktemp("optimize")
     text = io.StringIO()
     with contextlib.redirect_stdout(text):
-        assert main(["optimize", *SMALL, "--out", str(out), "--json", "--quiet"]) == 0
+        assert main(["optimize", *SMALL, *CHECK_SMALL, "--out", str(out), "--json", "--quiet"]) == 0
     return out, json.loads(text.getvalue())
 
 
@@ -92,6 +93,14 @@ def test_running_it_again_resumes_from_the_folder(
         (["--budget", "0"], "budget must be an integer"),
         (["--max-wall-deg", "5"], "would not contain the X-Face"),
         (["--crosscheck-grid", "4"], "--crosscheck-grid must be an odd integer >= 3"),
+        (
+            ["--no-crosscheck", "--crosscheck-converge-by", "cells"],
+            "--crosscheck-converge-by set how the Chipmunk2D check runs, and --no-crosscheck",
+        ),
+        (
+            ["--no-crosscheck", "--crosscheck-grid", "41"],
+            "--crosscheck-grid set how the Chipmunk2D check runs, and --no-crosscheck",
+        ),
     ],
 )
 def test_bad_input_is_one_line_and_exit_2(
