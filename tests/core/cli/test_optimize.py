@@ -13,6 +13,8 @@ import ezdxf
 import pytest
 
 from xface_core.cli import main
+from xface_core.cli.optimize import OPTIMIZE_CONVERGE_BY
+from xface_core.codes import CROSSCHECK_CONVERGE_BY
 from xface_core.facefile import load_face
 
 SMALL = ["--grid", "7", "--budget", "12", "--popsize", "6", "--vertices", "2", "--workers", "1"]
@@ -37,6 +39,16 @@ def test_optimize_writes_what_a_designer_takes_away(
     names |= {"crosscheck.json", "summary.json", "evaluations.parquet"}
     assert names <= {p.name for p in out.iterdir()}
     assert json.loads((out / "summary.json").read_text()) == summary
+
+
+def test_the_winner_s_cross_check_converges_cell_by_cell_by_default(
+    searched: tuple[Path, dict[str, Any]],
+) -> None:
+    out, _ = searched
+    check = json.loads((out / "crosscheck.json").read_text())
+    assert OPTIMIZE_CONVERGE_BY in CROSSCHECK_CONVERGE_BY
+    assert check["converge_by"] == OPTIMIZE_CONVERGE_BY == "cells"
+    assert check["converged"] is not None  # the halvings ran: a converged check
 
 
 def test_the_face_file_is_the_best_face_with_its_name(
