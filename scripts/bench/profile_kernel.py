@@ -5,6 +5,9 @@
         .venv/bin/python scripts/bench/profile_kernel.py --face S --h-over-d 0.5 --r-p 1 \\
         --seconds 30
     .venv/bin/python scripts/bench/profile_kernel.py --report /tmp/kernel.data
+    # other poses than a map's, e.g. a margin search's confirmations:
+    perf record -F 2000 -o /tmp/kernel.data .venv/bin/python scripts/bench/profile_kernel.py \
+        --face X --h-over-d 0.25 --r-p 1 --poses poses.npz --seconds 25
 
 ``perf`` sees numba's machine code as anonymous memory. The first form compiles the engine
 afresh (into a temporary numba cache: a kernel loaded from the cache knows only its entry
@@ -30,6 +33,7 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+from typing import Any
 
 
 def write_perf_map(entry: object, package: object, path: Path) -> int:
@@ -82,9 +86,8 @@ def _run(args: argparse.Namespace, argv: list[str]) -> int:
     design = makers[args.face](args.h_over_d, args.r_p)
     if args.poses is None:
         x, t = np.meshgrid(x0_grid(41), theta_grid(41), indexing="ij")
-    else:  # x0 (D) and theta0 (rad) of the poses to profile: scaled to the design's width
-        with np.load(args.poses) as poses:
-            x, t = poses["x0"] * design.width, poses["theta0"]
+    else:
+        x, t = poses_from(args.poses, design.width)
     xf.predict_batch(design, x, t, threads=1)  # compiles
     n = write_perf_map(engine.simulate_many, engine, Path(f"/tmp/perf-{os.getpid()}.map"))
     print(f"perf map: {n} engine functions", file=sys.stderr)
@@ -95,6 +98,23 @@ def _run(args: argparse.Namespace, argv: list[str]) -> int:
         maps += 1
     print(f"{maps} batches of {x.size} poses in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
     return 0
+
+
+def poses_from(path: Path, width: float) -> tuple[Any, Any]:
+    """The poses of an ``.npz`` with arrays ``x0`` (D) and ``theta0`` (rad) of one shape, as
+    (x0 in the design's length unit, theta0) for ``predict_batch``."""
+    import numpy as np
+
+    with np.load(path) as poses:
+        missing = {"x0", "theta0"} - set(poses.files)
+        if missing:
+            raise SystemExit(
+                f"{path}: no array {', '.join(sorted(missing))} (x0 in D, theta0 in rad)"
+            )
+        x0, theta0 = np.asarray(poses["x0"], dtype=float), np.asarray(poses["theta0"], dtype=float)
+    if x0.shape != theta0.shape:
+        raise SystemExit(f"{path}: x0 {x0.shape} and theta0 {theta0.shape} differ in shape")
+    return x0 * width, theta0
 
 
 def shares(perf_report: str) -> dict[str, float]:

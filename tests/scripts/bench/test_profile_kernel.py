@@ -58,3 +58,18 @@ def test_a_missing_profile_is_refused_without_a_traceback(
 ) -> None:
     assert profile.main(["--report", str(tmp_path / "none.data")]) == 2
     assert "no perf data" in capsys.readouterr().err
+
+
+def test_poses_are_read_in_d_and_scaled_to_the_design_s_width(tmp_path: Path) -> None:
+    path = tmp_path / "poses.npz"
+    np.savez(path, x0=np.array([0.1, -0.2]), theta0=np.array([0.3, 0.0]))
+    x, t = profile.poses_from(path, 2.0)
+    assert x.tolist() == [0.2, -0.4]
+    assert t.tolist() == [0.3, 0.0]
+
+
+def test_a_poses_file_without_theta0_is_refused_with_what_it_lacks(tmp_path: Path) -> None:
+    path = tmp_path / "poses.npz"
+    np.savez(path, x0=np.array([0.1]))
+    with pytest.raises(SystemExit, match="no array theta0"):
+        profile.poses_from(path, 1.0)
