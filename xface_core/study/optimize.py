@@ -332,7 +332,7 @@ def _same_polygons(a: FaceDesign, b: FaceDesign) -> bool:
         *zip(a.base_layers, b.base_layers, strict=True),
         *zip(a.moving_layers, b.moving_layers, strict=True),
     ]
-    return all(p.shape == q.shape and np.array_equal(p, q) for p, q in pairs)
+    return all(np.array_equal(p, q) for p, q in pairs)
 
 
 def _score(row: dict[str, Any], criterion: Criterion) -> float:
@@ -416,14 +416,11 @@ def optimize_face(
                              theta_kind, settings, noise, friction, damping_ratio)  # fmt: skip
 
         x_point = family.x_face_point()
-        start = evaluate([family.design(x_point)])[0]
+        start_design = family.design(x_point)
+        start = evaluate([start_design])[0]
         # The gain is against the X-Face, which a family of one layer does not hold.
         reference = x_face(family.h_over_d, family.r_p)
-        x_face_row = (
-            start
-            if _same_polygons(reference, family.design(x_point))
-            else (evaluate([reference])[0])
-        )
+        x_face_row = start if _same_polygons(reference, start_design) else evaluate([reference])[0]
         best = (_score(start, criterion), x_point, start)
         history: list[tuple[int, float]] = [(0, best[0])]
         evaluations, restarts, reasons = 0, 0, []
