@@ -25,6 +25,8 @@ col   meaning
 20    largest distance of the vertex or the edge's ends from their pivots (filled by
       :func:`~xface_core._engine.pairs.fill_extents`)
 21    the edge's length (likewise)
+22    length of the edge before the edge's start corner (same frame as 3-6)
+23    length of the edge after the edge's end corner
 ====  =================================================================================
 
 The neighbours' normals let the engine tell, near a corner, whether a vertex behind the
@@ -44,7 +46,13 @@ import numpy as np
 import numpy.typing as npt
 
 from ._engine import Model
-from ._engine.pairs import PAIR_COLUMNS, eval_pair, fill_extents
+from ._engine.pairs import (
+    COL_LENGTH_AFTER,
+    COL_LENGTH_BEFORE,
+    PAIR_COLUMNS,
+    eval_pair,
+    fill_extents,
+)
 from .geometry import FaceDesign
 
 __all__ = ["PairTable", "clear_cache", "contact_geometry", "eval_pair", "pair_table"]
@@ -104,6 +112,7 @@ def _pairs(vertices: FloatArray, edges: FloatArray, kind: int) -> FloatArray:
     convex_start = before[:, 0] * normals[:, 1] - before[:, 1] * normals[:, 0] > 0.0
     convex_end = normals[:, 0] * after[:, 1] - normals[:, 1] * after[:, 0] > 0.0
     n_e, n_v = len(edges), len(vertices)
+    length_before, length_after = np.roll(length, 1), np.roll(length, -1)
     # Row (j, i): edge j against vertex i, edges outer, vertices inner.
     per_edge = np.column_stack(
         (edges[:, 0:4], normals, edges[:, 4], before, after, convex_start, convex_end)
@@ -114,6 +123,8 @@ def _pairs(vertices: FloatArray, edges: FloatArray, kind: int) -> FloatArray:
     out[:, :, 1:3] = per_vertex[None, :, 0:2]
     out[:, :, 3:16] = per_edge[:, None, :]
     out[:, :, 16:20] = per_vertex[None, :, 2:6]
+    out[:, :, COL_LENGTH_BEFORE] = length_before[:, None]
+    out[:, :, COL_LENGTH_AFTER] = length_after[:, None]
     return out.reshape(-1, PAIR_COLUMNS)
 
 

@@ -35,18 +35,6 @@ ENGINE_DEFECT = "engine defect inside the verified range (issue 37): "
 
 #: Why each reproducer inside the range still fails, by its "defect" key in the data file.
 DEFECTS = {
-    "NEEDLES_0": (
-        "custom face (H/D about 3, damping ratio 1e4): two needle tips (0.99 and 1.23 degrees) in "
-        "contact while their flanks cross the base's outline 2.2e-4 D deep"
-    ),
-    "NEEDLE_1": (
-        "custom face (H/D about 3, default physics): a 0.79-degree needle tip of the base in "
-        "contact while its flanks cross the moving outline 3.9e-4 D deep"
-    ),
-    "FRICTION_MIRROR_7": (
-        "mirror-symmetric custom face with friction: the jam at (-x0, -theta0) stops at angles "
-        "0.03-0.09 rad from the mirror image of the jam at (x0, theta0) (exact with friction 0)"
-    ),
     "LIGHT_BASE_9": (
         "V 0.98/0 at damping ratio 1e-4 (UNRESOLVED up to 1e-3, seated from 1e-2) with friction "
         "0.3-0.46: the event limit is reached"
@@ -60,19 +48,6 @@ DEFECTS = {
         "mirror-symmetric custom face (H/D 11.8, default physics): the two jams of a mirror pair "
         "stop 1.35e-3 rad apart in phi_M"
     ),
-    "OVERLAP_1781": (
-        "custom face (H/D 0.54, r_p 0, default physics): held on two contacts (a 79-degree base "
-        "corner, a 25-degree moving spike), the outlines cross with no vertex inside the other, "
-        "5.5e-5 D deep at the second contact and 5.0e-3 D at the jam 0.008 D of descent later"
-    ),
-    "OVERLAP_2903": (
-        "custom face (H/D 4.27, r_p 0, default physics): the parts interpenetrate 1.5e-3 D near "
-        "the end of the path (found by the probe, not analysed further)"
-    ),
-    "OVERLAP_3802": (
-        "custom face (H/D 0.86, damping ratio 6.5e-4, friction 0.97): the parts interpenetrate "
-        "0.29 D (found by the probe, not analysed further)"
-    ),
     "FRICTIONLESS_MIRROR_310": (
         "mirror-symmetric custom face (H/D 38, damping ratio 4.2e-4, no friction): the two jams "
         "of a mirror pair stop 8.4e-4 rad apart"
@@ -80,6 +55,23 @@ DEFECTS = {
     "FRICTION_MIRROR_1198": (
         "mirror-symmetric custom face (H/D 2.6, damping ratio 1.8e-4, friction 1.34): the two "
         "jams of a mirror pair stop 1.1e-2 rad apart"
+    ),
+    "FRICTION_MIRROR_208": (
+        "mirror-symmetric custom face (H/D 0.38, damping ratio 250, friction 0.48): the two jams "
+        "of a mirror pair stop 0.46 rad apart"
+    ),
+    "FRICTIONLESS_MIRROR_1362": (
+        "mirror-symmetric custom face (H/D 2.3, damping ratio 54, no friction): at the flush "
+        "alignment the two runs of a mirror pair choose contact sets that are not mirror images "
+        "(same rate) and jam 4.3e-3 rad apart"
+    ),
+    "FRICTION_MIRROR_1086": (
+        "mirror-symmetric custom face (H/D 7.1, damping ratio 5.9e-4, friction 0.32): the two "
+        "jams of a mirror pair stop 9.4e-4 rad apart"
+    ),
+    "FRICTION_MIRROR_1913": (
+        "mirror-symmetric custom face (H/D 12.9, damping ratio 0.21, friction 0.045): the two "
+        "jams of a mirror pair stop 2.7e-2 rad apart"
     ),
 }
 
@@ -102,7 +94,7 @@ def _reproducers(group: str) -> list[Any]:
 
 #: Each reproducer with where it was found: issue 37's engine_range.py (ids "N-class-kind"),
 #: then runs the probe found inside the range when run over the old one (seed 1 at 1b73aaf) and
-#: over the new one (seeds 2 and 4), ids "probe-N-class-kind".
+#: over the new one (seeds 2, 4 and 5), ids "probe-N-class-kind".
 DATA = Path(__file__).with_name("range_reproducers.json")
 REFUSED = _reproducers("refused")
 INSIDE = _reproducers("inside")

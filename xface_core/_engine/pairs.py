@@ -23,8 +23,12 @@ from .records import (
 #: distance (D) of the pair's vertex or edge ends from their pivots, and the edge's length.
 COL_REACH = 20
 COL_EDGE_LENGTH = 21
+#: Columns of the neighbouring edges' lengths (D): the edge before the start corner, and the
+#: edge after the end corner (:mod:`xface_core.contact` fills them).
+COL_LENGTH_BEFORE = 22
+COL_LENGTH_AFTER = 23
 #: Columns of a full pair table (:mod:`xface_core.contact`).
-PAIR_COLUMNS = 22
+PAIR_COLUMNS = 24
 
 
 @njit_no_refcount
@@ -87,33 +91,66 @@ def eval_pair(
 
 
 @njit_inline
-def adjacent_gap(
-    row: FloatArray, cb: float, sb: float, cm: float, sm: float, x0: float, y_m: float, at_end: bool
-) -> tuple[float, bool]:
-    """The pair's vertex against the line of the edge next to one corner of its edge.
-
-    Returns ``(g_adj, convex)``: the signed distance (D) of the vertex from the line of the
-    edge that meets this pair's edge at its end corner (``at_end``) or start corner, along
-    that edge's outward normal, and whether that corner is convex. Near a convex corner a
-    vertex is inside the other part only if it is behind both lines (g < 0 and g_adj < 0).
-    """
+def vertex_in_edge_frame(
+    row: FloatArray, cb: float, sb: float, cm: float, sm: float, x0: float, y_m: float
+) -> tuple[float, float]:
+    """The pair's vertex in the body frame of its edge's part (D): where the edge, its
+    corners and its neighbours are stored, so that each is one dot product away."""
     vx, vy = row[1], row[2]
-    cx, cy = (row[5], row[6]) if at_end else (row[3], row[4])
-    nx, ny = (row[12], row[13]) if at_end else (row[10], row[11])
-    convex = (row[15] if at_end else row[14]) > 0.5
     if row[0] == 0.0:
-        # Moving vertex against a base corner.
+        # Moving vertex P = P_M - R(phi_M) v, into the base's frame: R(-phi_B) P.
         px = x0 - (cm * vx - sm * vy)
         py = y_m - (sm * vx + cm * vy)
-        wx, wy = cb * cx - sb * cy, sb * cx + cb * cy
-        wnx, wny = cb * nx - sb * ny, sb * nx + cb * ny
+        return cb * px + sb * py, -sb * px + cb * py
+    # Base vertex P = R(phi_B) v, into the moving part's frame: R(-phi_M) (P_M - P).
+    dx = x0 - (cb * vx - sb * vy)
+    dy = y_m - (sb * vx + cb * vy)
+    return cm * dx + sm * dy, -sm * dx + cm * dy
+
+
+@njit_inline
+def adjacent_gap(row: FloatArray, qx: float, qy: float, at_end: bool) -> float:
+    """The pair's vertex, at ``(qx, qy)`` in its edge's frame (:func:`vertex_in_edge_frame`),
+    against the line of the edge next to one corner of its edge: its signed distance (D)
+    from that line along the line's outward normal, for the end corner (``at_end``) or the
+    start corner. Near a convex corner a vertex is inside the other part only if it is
+    behind both lines (g < 0 and g_adj < 0). (Both parts' body frames keep orientation, so
+    distances along body-frame normals are the world's.)
+
+    The neighbour's line bounds the part only near its corner and along the neighbour's
+    own span: the result is ``-inf`` (the line says nothing there) where the vertex lies
+    alongside this pair's edge nearer its other corner, or alongside it and farther from the
+    corner, along the neighbour, than the neighbour is long. At a needle corner (its two
+    edges nearly parallel) the line runs on past the needle's base, across the body the edge
+    bounds: a vertex entering the body through the edge's middle was beside that line, and
+    the contact went unseen (a custom face cut 0.29 D into its partner). On a long thin part
+    the line of the corner 4.9 D away crossed the near end of the edge: a vertex passing
+    through a needle 0.2 D from its tip was beside it. Past the corner the line still clips,
+    however short the neighbour: there the edge's own line is no contact surface either
+    (held as one, a vertex 0.5 edge lengths before a corner fired the same contact every
+    3e-9 D).
+    """
+    if at_end:
+        rx, ry = qx - row[5], qy - row[6]
+        nx, ny, span = row[12], row[13], row[COL_LENGTH_AFTER]
     else:
-        # Base vertex against a moving corner.
-        px = cb * vx - sb * vy
-        py = sb * vx + cb * vy
-        wx, wy = x0 - (cm * cx - sm * cy), y_m - (sm * cx + cm * cy)
-        wnx, wny = -(cm * nx - sm * ny), -(sm * nx + cm * ny)
-    return wnx * (px - wx) + wny * (py - wy), convex
+        rx, ry = qx - row[3], qy - row[4]
+        nx, ny, span = row[10], row[11], row[COL_LENGTH_BEFORE]
+    # A counter-clockwise outline has its outside on the right of each edge, so an edge with
+    # outward normal n runs along (-n_y, n_x): this edge from its start to its end, the
+    # neighbour after the end away from the corner, the one before the start towards it.
+    into_edge = -row[8] * rx + row[7] * ry
+    if at_end:
+        into_edge = -into_edge
+    if into_edge > 0.5 * row[COL_EDGE_LENGTH]:
+        return -math.inf  # nearer the edge's other corner
+    along_neighbour = -ny * rx + nx * ry
+    if not at_end:
+        along_neighbour = -along_neighbour
+    if into_edge >= 0.0 and along_neighbour > span:
+        return -math.inf
+    gap: float = nx * rx + ny * ry
+    return gap
 
 
 @njit_inline
@@ -121,7 +158,8 @@ def clipped_gap(
     row: FloatArray, g: float, cb: float, sb: float, cm: float, sm: float, x0: float, y_m: float
 ) -> float:
     """The pair's gap ``g`` (D) with the edge's convex corners clipped on:
-    ``max(g, gap to the neighbour's line at each convex end)``.
+    ``max(g, gap to the neighbour's line at each convex end)``, each line only where it
+    bounds the part (:func:`adjacent_gap`).
 
     Near a convex corner the other part is the intersection of the two edges' inner
     half-planes, so this is negative exactly when the vertex is inside it there. A vertex
@@ -130,10 +168,13 @@ def clipped_gap(
     inside one integration step unseen.
     """
     # Only a convex end clips: a reflex one's neighbour line is not computed at all.
-    if row[14] > 0.5:
-        g = max(g, adjacent_gap(row, cb, sb, cm, sm, x0, y_m, False)[0])
-    if row[15] > 0.5:
-        g = max(g, adjacent_gap(row, cb, sb, cm, sm, x0, y_m, True)[0])
+    start, end = row[14] > 0.5, row[15] > 0.5
+    if start or end:
+        qx, qy = vertex_in_edge_frame(row, cb, sb, cm, sm, x0, y_m)
+        if start:
+            g = max(g, adjacent_gap(row, qx, qy, False))
+        if end:
+            g = max(g, adjacent_gap(row, qx, qy, True))
     return g
 
 

@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 import pytest
+import shapely
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -13,8 +14,11 @@ import xface_core as xf
 from xface_core._engine.overlap import overlapping
 from xface_core._engine.pairs import (
     COL_EDGE_LENGTH,
+    COL_LENGTH_AFTER,
+    COL_LENGTH_BEFORE,
     COL_REACH,
     PAIR_COLUMNS,
+    clipped_gap,
     eval_all_pairs,
     eval_pair,
     fill_extents,
@@ -24,7 +28,7 @@ from xface_core._engine.pairs import (
     touching_pairs,
 )
 from xface_core._engine.records import TOUCH_WINDOW
-from xface_core.contact import BASE_VERTEX, MOVING_VERTEX, pair_table
+from xface_core.contact import BASE_VERTEX, MOVING_VERTEX, _pairs, pair_table
 from xface_core.runner import start_height
 
 
@@ -237,3 +241,46 @@ def test_the_extents_are_the_pairs_reach_and_edge_length() -> None:
         assert row[COL_EDGE_LENGTH] == pytest.approx(
             math.hypot(row[5] - row[3], row[6] - row[4]), rel=1e-15
         )
+
+
+#: A base body with a needle on its top-left corner (counter-clockwise): the left wall runs
+#: from the needle's tip (-1, 1) down to (-1, -1); the needle's other flank, 1 D long, is
+#: almost parallel to it (0.001 D apart at the needle's base, y = 0).
+NEEDLE_BODY = np.array([(-1.0, -1.0), (1.0, -1.0), (1.0, 0.0), (-0.999, 0.0), (-1.0, 1.0)])
+
+
+def _needle_wall_row() -> np.ndarray:
+    """A moving vertex at its pivot (so at (x0, y_M) in the world with phi_M 0) against the
+    needle body's left wall (edge 4: tip to bottom corner)."""
+    edges = np.column_stack((NEEDLE_BODY, np.roll(NEEDLE_BODY, -1, axis=0), np.zeros(5)))
+    vertices = np.array([(0.0, 0.0), (0.1, 0.0), (0.0, 0.1)])
+    table = _pairs(vertices, edges, MOVING_VERTEX)
+    fill_extents(table)
+    return table[4 * len(vertices)]
+
+
+def _clipped_at(row: np.ndarray, x: float, y: float) -> float:
+    g = eval_pair(row, 1.0, 0.0, 1.0, 0.0, x, y)[0]
+    return float(clipped_gap(row, g, 1.0, 0.0, 1.0, 0.0, x, y))
+
+
+def test_the_neighbour_lengths_are_the_edges_before_and_after_the_corners() -> None:
+    row = _needle_wall_row()
+    assert row[COL_LENGTH_BEFORE] == pytest.approx(math.hypot(0.001, 1.0), rel=1e-15)
+    assert row[COL_LENGTH_AFTER] == pytest.approx(2.0, rel=1e-15)
+
+
+def test_a_vertex_in_the_body_past_a_needle_s_base_is_inside_through_the_wall() -> None:
+    # Behind the wall's line, beside the needle flank's line, but farther along the flank
+    # than the flank is long: inside the body (the flank's line says nothing there).
+    row = _needle_wall_row()
+    assert shapely.Polygon(NEEDLE_BODY).contains(shapely.Point(-0.5, -0.5))
+    assert _clipped_at(row, -0.5, -0.5) == pytest.approx(-0.5, abs=1e-15)
+
+
+def test_a_vertex_beside_a_needle_within_its_span_is_outside() -> None:
+    # In the notch between the needle and the body's top: behind the wall's line, in front
+    # of the flank's, within the flank's span.
+    row = _needle_wall_row()
+    assert not shapely.Polygon(NEEDLE_BODY).contains(shapely.Point(-0.9, 0.5))
+    assert _clipped_at(row, -0.9, 0.5) > 0.0

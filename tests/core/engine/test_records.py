@@ -165,7 +165,8 @@ def test_the_engine_below_its_entries_runs_without_reference_counting() -> None:
 INLINED = {
     "events.contact_value", "pairs._cone_admits", "pairs._side_of_all", "pairs.adjacent_gap",
     "pairs.clipped_gap", "pairs.eval_pair", "pairs.pair_at", "pairs.wedges_cross",
-    "records.frictionless", "records.held_contacts", "scan._crossing", "segment._segment",
+    "pairs.vertex_in_edge_frame", "records.frictionless", "records.held_contacts",
+    "scan._crossing", "segment._segment",
 }  # fmt: skip
 
 

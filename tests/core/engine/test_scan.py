@@ -2,12 +2,22 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
 import xface_core as xf
 from xface_core._engine.events import NO_EVENT, step_to
-from xface_core._engine.pairs import eval_all_pairs, pair_at
+from xface_core._engine.pairs import (
+    COL_LENGTH_AFTER,
+    PAIR_COLUMNS,
+    clipped_gap,
+    eval_all_pairs,
+    eval_pair,
+    fill_extents,
+    pair_at,
+)
 from xface_core._engine.records import (
     CORNER_REACH,
     DENSE_WIDTH,
@@ -29,8 +39,10 @@ from xface_core._engine.scan import (
     _far_behind,
     _far_outside_or_behind,
     _gap_bounds,
+    _inside_thin_corner,
     _segment_distance,
     _travel,
+    _trig,
     _turn_rates,
     find_event,
     reach_budget,
@@ -230,7 +242,7 @@ def test_the_shared_screen_decides_as_the_two_screens_do(design, x0, theta0) -> 
 def _budget_row(length: float, crossable: bool) -> np.ndarray:
     """A pair row with an edge of ``length``; its start corner K and its vertex V both convex
     (they can cross like an X) or K reflex."""
-    row = np.zeros(22)
+    row = np.zeros(PAIR_COLUMNS)
     row[21] = length  # COL_EDGE_LENGTH
     row[14] = 1.0 if crossable else 0.0  # K convex
     row[16:20] = (1.0, 0.0, 0.0, 1.0)  # V's two edge directions: a convex vertex
@@ -278,3 +290,58 @@ def test_a_pair_flat_at_the_event_does_not_come_before_it() -> None:
     p = xf.predict(design, 0.6 * design.width, -np.pi / 20.0)
     assert p.outcome == xf.Outcome.SEATED
     assert abs(p.phi_b - p.phi_m) < 1e-9
+
+
+def _needle_table(incline, tip_x: float) -> np.ndarray:
+    """Pair 1 of the incline turned into a thin base needle pointing left at pair 1's contact
+    height: its upper flank (the pair's edge, outside up) runs from (tip_x + 3, height + 1e-3)
+    to the tip (tip_x, height); the lower flank goes back from the tip 1e-3 below."""
+    height = incline.table[1, 4]
+    top = (tip_x + 3.0, height + 1e-3)
+    tip = (tip_x, height)
+    length = math.hypot(3.0, 1e-3)
+    up = (-1e-3 / length, 3.0 / length)  # outward normal of the upper flank
+    down = (-1e-3 / length, -3.0 / length)  # of the lower flank (tip to (tip_x + 3, height - 1e-3))
+    table = incline.table.copy()
+    row = np.zeros(PAIR_COLUMNS)
+    row[:10] = (0.0, -0.4, 1.3, *top, *tip, *up, 0.0)
+    row[12:14] = down
+    row[15] = 1.0  # the tip is a convex corner; the flank's other end counts as reflex
+    row[COL_LENGTH_AFTER] = length
+    table[1] = row
+    fill_extents(table)
+    return table
+
+
+def _through_needle(incline, tip_x: float) -> float:
+    table = _needle_table(incline, tip_x)
+    seg = incline.segment()
+    seg = seg._replace(held=seg.held._replace(pairs=table))
+    step = incline.step(0.05)
+    nb, nm, _, _, ok = step_to(seg, step, step.h)
+    assert ok
+    ends = ((step.phi_b, step.phi_m, step.y_m), (nb, nm, step.y_m - step.h))
+    gaps = tuple(pair_at(table, 1, pb, pm, incline.x0, y)[0] for pb, pm, y in ends)
+    beside_end = clipped_gap(table[1], gaps[1], *_trig(nb, nm), incline.x0, ends[1][2])
+    start = _trig(step.phi_b, step.phi_m)
+    return float(
+        _inside_thin_corner(seg, step, table[1], 0.0, OPTS.event_tol, gaps, beside_end, start)
+    )
+
+
+def test_a_vertex_through_a_thin_needle_in_one_step_is_found_inside_it(incline) -> None:
+    # The vertex (x ~ 0.73) comes down through the needle, 0.2 D from its tip: behind both
+    # flanks' lines between the two crossings, 8.5e-5 D of descent apart.
+    t = _through_needle(incline, 0.5)
+    assert 0.0 < t < 0.05
+    pm = incline.phi_m_at(t)
+    row = _needle_table(incline, 0.5)[1]
+    y = incline.y0 - t
+    assert eval_pair(row, 1.0, 0.0, math.cos(pm), math.sin(pm), incline.x0, y)[0] <= 0.0
+    assert clipped_gap(row, -math.inf, 1.0, 0.0, math.cos(pm), math.sin(pm), incline.x0, y) <= 0.0
+
+
+def test_a_vertex_passing_beside_a_needle_s_tip_is_not_inside_it(incline) -> None:
+    # The tip at x = 1.0, right of the vertex's path: it crosses both lines' extensions left
+    # of the tip, the lower one first (in front of both in between).
+    assert _through_needle(incline, 1.0) == 0.0
