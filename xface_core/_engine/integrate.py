@@ -7,9 +7,9 @@ from __future__ import annotations
 
 import math
 
-from .motion import velocity
+from .motion import project_gaps, velocity
 from .pairs import eval_pair
-from .records import TINY, Contacts, FloatArray, Segment, Step, njit_no_refcount
+from .records import Contacts, FloatArray, Segment, Step, njit_no_refcount
 
 # Dormand-Prince 5(4) tableau.
 A21 = 1.0 / 5.0
@@ -48,35 +48,9 @@ E1, E3, E4, E5, E6, E7 = (
 def project(held: Contacts, pb: float, pm: float, ym: float) -> tuple[float, float]:
     """Newton-project (phi_B, phi_M) onto the active constraints ``held`` (g = 0) at fixed
     y_M, along the least-dissipation metric (keeps the constraint violation at round-off)."""
-    table, act, nact, x0 = held.pairs, held.act, held.n_active, held.x0
-    winv_b, winv_m = held.winv_b, held.winv_m
-    for _ in range(3):
-        cb0, sb0, cm0, sm0 = math.cos(pb), math.sin(pb), math.cos(pm), math.sin(pm)
-        g1, _, ab1, am1, _, _, _, _, _ = eval_pair(table[act[0]], cb0, sb0, cm0, sm0, x0, ym)
-        if nact == 1:
-            nn = ab1 * ab1 * winv_b + am1 * am1 * winv_m
-            if nn <= 1e-24:
-                break
-            lam = -g1 / nn
-            pb += lam * ab1 * winv_b
-            pm += lam * am1 * winv_m
-            if abs(g1) < 1e-15:
-                break
-        else:
-            g2, _, ab2, am2, _, _, _, _, _ = eval_pair(table[act[1]], cb0, sb0, cm0, sm0, x0, ym)
-            m11 = ab1 * ab1 * winv_b + am1 * am1 * winv_m
-            m12 = ab1 * ab2 * winv_b + am1 * am2 * winv_m
-            m22 = ab2 * ab2 * winv_b + am2 * am2 * winv_m
-            det = m11 * m22 - m12 * m12
-            if det <= 1e-24 * (m11 * m22 + TINY):
-                break
-            l1 = (-g1 * m22 + g2 * m12) / det
-            l2 = (-g2 * m11 + g1 * m12) / det
-            pb += (l1 * ab1 + l2 * ab2) * winv_b
-            pm += (l1 * am1 + l2 * am2) * winv_m
-            if abs(g1) < 1e-15 and abs(g2) < 1e-15:
-                break
-    return pb, pm
+    return project_gaps(
+        held.pairs, held.act, held.n_active, held.x0, held.winv_b, held.winv_m, pb, pm, ym, 3
+    )
 
 
 @njit_no_refcount

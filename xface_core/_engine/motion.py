@@ -11,7 +11,14 @@ from __future__ import annotations
 
 import math
 
-from .pairs import corner_distance, corner_motion_admissible, eval_pair, pair_at
+from .pairs import (
+    COL_EDGE_LENGTH,
+    clipped_gap,
+    corner_distance,
+    corner_motion_admissible,
+    eval_pair,
+    pair_at,
+)
 from .records import (
     CORNER_REACH,
     FREE,
@@ -39,6 +46,63 @@ def feasible(ev: FloatArray, cand: IntArray, nc: int, vb: float, vm: float, tol:
         if ev[j, 2] * vb + ev[j, 3] * vm < ev[j, 4] - tol * (1.0 + abs(ev[j, 4])):
             return False
     return True
+
+
+@njit_no_refcount
+def widest_pair(
+    ev: FloatArray, cand: IntArray, nc: int, sqb: float, sqm: float, tol: float, vb: float,
+    vm: float, act: IntArray, nact: int,
+) -> int:  # fmt: skip
+    """The two contacts to hold for the least-dissipation rate ``(vb, vm)`` (rad per D) when
+    more than two candidates hold it with zero slack: of the pairs whose forces push
+    (multipliers >= 0) for that rate, the one whose gap gradients are furthest from parallel
+    (largest |det| in the metric); ``act[:2]`` is replaced by it. Returns the number held.
+
+    With two edges lying flush the contacts are every vertex of either part on the other's
+    edge, and any two give the same rate; the order of the candidates (pair indices) chose,
+    and a mirror-symmetric face chose differently from its mirror run (one slid, the other
+    locked by friction). The furthest apart of them is the one set whose forces can sit
+    anywhere on the flush overlap, as a distributed contact's can, which the friction
+    check then needs (:func:`~.interval._with_friction` tries the held set first).
+
+    For contacts inside their edges' spans only (:func:`choose_motion`'s hard constraints):
+    corner pairs are alternatives, and two of one corner meeting held together pin a point,
+    whichever two they are (docs/contact.md, sections 2 and 6).
+    """
+    zero = 0
+    for k in range(nc):
+        j = cand[k]
+        if abs(ev[j, 2] * vb + ev[j, 3] * vm - ev[j, 4]) <= tol * (1.0 + abs(ev[j, 4])):
+            zero += 1
+    if zero <= 2:
+        return nact
+    ub, um = vb / sqb if sqb > 0.0 else 0.0, vm / sqm
+    best_det = -1.0
+    first, second = act[0], act[1]
+    for k in range(nc):
+        i = cand[k]
+        if abs(ev[i, 2] * vb + ev[i, 3] * vm - ev[i, 4]) > tol * (1.0 + abs(ev[i, 4])):
+            continue
+        ab1, am1 = ev[i, 2] * sqb, ev[i, 3] * sqm
+        for m in range(k + 1, nc):
+            j = cand[m]
+            if abs(ev[j, 2] * vb + ev[j, 3] * vm - ev[j, 4]) > tol * (1.0 + abs(ev[j, 4])):
+                continue
+            ab2, am2 = ev[j, 2] * sqb, ev[j, 3] * sqm
+            det = ab1 * am2 - am1 * ab2
+            scale = math.sqrt((ab1 * ab1 + am1 * am1) * (ab2 * ab2 + am2 * am2))
+            if abs(det) <= 1e-9 * scale or abs(det) <= best_det:
+                continue
+            # The forces: u = l1 a1 + l2 a2 in the scaled variables.
+            l1 = (ub * am2 - ab2 * um) / det
+            l2 = (ab1 * um - am1 * ub) / det
+            floor = -tol * (abs(l1) + abs(l2))
+            if l1 < floor or l2 < floor:
+                continue
+            best_det = abs(det)
+            first, second = i, j
+    act[0], act[1] = first, second
+    return nact
 
 
 @njit_no_refcount
@@ -315,6 +379,90 @@ def rate_keeps_contacts(
 
 
 @njit_no_refcount
+def project_gaps(
+    table: FloatArray, act: IntArray, nact: int, x0: float, winv_b: float, winv_m: float,
+    pb: float, pm: float, ym: float, iterations: int,
+) -> tuple[float, float]:  # fmt: skip
+    """Newton-project (phi_B, phi_M) onto the gaps of the pairs ``act[:nact]`` (one or two)
+    of ``table`` at fixed y_M, along the metric whose inverse is ``(winv_b, winv_m)``, in at
+    most ``iterations`` steps: :func:`~.integrate.project` for the held contacts, and the
+    motion choice's look-ahead (:func:`cut_ahead`), which has no :class:`Contacts`."""
+    for _ in range(iterations):
+        cb0, sb0, cm0, sm0 = math.cos(pb), math.sin(pb), math.cos(pm), math.sin(pm)
+        g1, _, ab1, am1, _, _, _, _, _ = eval_pair(table[act[0]], cb0, sb0, cm0, sm0, x0, ym)
+        if nact == 1:
+            nn = ab1 * ab1 * winv_b + am1 * am1 * winv_m
+            if nn <= 1e-24:
+                break
+            lam = -g1 / nn
+            pb += lam * ab1 * winv_b
+            pm += lam * am1 * winv_m
+            if abs(g1) < 1e-15:
+                break
+        else:
+            g2, _, ab2, am2, _, _, _, _, _ = eval_pair(table[act[1]], cb0, sb0, cm0, sm0, x0, ym)
+            m11 = ab1 * ab1 * winv_b + am1 * am1 * winv_m
+            m12 = ab1 * ab2 * winv_b + am1 * am2 * winv_m
+            m22 = ab2 * ab2 * winv_b + am2 * am2 * winv_m
+            det = m11 * m22 - m12 * m12
+            if det <= 1e-24 * (m11 * m22 + TINY):
+                break
+            l1 = (-g1 * m22 + g2 * m12) / det
+            l2 = (-g2 * m11 + g1 * m12) / det
+            pb += (l1 * ab1 + l2 * ab2) * winv_b
+            pm += (l1 * am1 + l2 * am2) * winv_m
+            if abs(g1) < 1e-15 and abs(g2) < 1e-15:
+                break
+    return pb, pm
+
+
+#: Alternatives of the motion choice whose dissipation differs by less than this (relative)
+#: give the same rate: a tie, settled by :func:`cut_ahead`.
+TIE_COST = 1e-9
+#: D of descent: the short move along a tied alternative (its sets differ at second order,
+#: here about LOOKAHEAD**2 = 1e-8 D, far above round-off).
+LOOKAHEAD = 1e-4
+#: D: a cut ahead no deeper than this is round-off (coordinates of up to 50 D carry 1e-14).
+LOOKAHEAD_CUT = 1e-12
+
+
+@njit_no_refcount
+def cut_ahead(
+    table: FloatArray, cand: IntArray, nc: int, act: IntArray, nact: int, pb: float, pm: float,
+    x0: float, ym: float, vb: float, vm: float, sqb: float, sqm: float,
+) -> float:  # fmt: skip
+    """How far (D) the motion holding ``act[:nact]`` at the rate ``(vb, vm)`` goes wrong a
+    short move (``LOOKAHEAD``) ahead: the largest of how far a held vertex has left its
+    edge's span and how deep the other touching pairs' vertices are inside (clipped gap).
+
+    Several contact sets can give the same rate: where two corners meet, the contact there
+    is held by any of the vertex-edge pairs that meet at it, and they agree to first order
+    only. At second order one set slides a vertex off its edge, or into the other part, and
+    another does not. Mirror images choose mirror images, where the order of the candidates
+    (pair indices) chose differently (a mirror-symmetric face jammed 4.3e-3 rad apart from
+    its mirror run). The move is the rate's (first order), then Newton onto the held gaps
+    at the new height, along the least-dissipation metric (``sqb``, ``sqm``: W^1/2).
+    """
+    qb, qm, yy = pb + LOOKAHEAD * vb, pm + LOOKAHEAD * vm, ym - LOOKAHEAD
+    if nact > 0:
+        qb, qm = project_gaps(table, act, nact, x0, sqb * sqb, sqm * sqm, qb, qm, yy, 6)
+    cb, sb, cm, sm = math.cos(qb), math.sin(qb), math.cos(qm), math.sin(qm)
+    cut = 0.0
+    for k in range(nc):
+        i = cand[k]
+        row = table[i]
+        g, u, _, _, _, _, _, _, _ = eval_pair(row, cb, sb, cm, sm, x0, yy)
+        held = (nact > 0 and act[0] == i) or (nact > 1 and act[1] == i)
+        if held:
+            cut = max(cut, -u * row[COL_EDGE_LENGTH], (u - 1.0) * row[COL_EDGE_LENGTH])
+        else:
+            cut = max(cut, -clipped_gap(row, g, cb, sb, cm, sm, x0, yy))
+    if not math.isfinite(cut):
+        return math.inf
+    return cut
+
+
+@njit_no_refcount
 def choose_motion(
     table: FloatArray,
     ev: FloatArray,
@@ -363,6 +511,8 @@ def choose_motion(
             alt[n_alt] = corner[k]
             n_alt += 1
     status, nact, vb, vm = solve_qp(ev, hard, nh, sqb, sqm, 1e-9, act)
+    if status == 0 and nact == 2:
+        nact = widest_pair(ev, hard, nh, sqb, sqm, 1e-9, vb, vm, act, nact)
     if n_corner == 0:
         return status, nact, vb, vm
     trial[:] = -1
@@ -370,6 +520,7 @@ def choose_motion(
     best_n = 0
     best_vb = 0.0
     best_vm = 0.0
+    best_cut = -1.0  # cut_ahead of the best alternative, once a tie needs it
     found = False
     if status == 0 and corners_hold(table, corner, n_corner, pb, pm, x0, ym, vb, vm, rays):
         found = True
@@ -392,12 +543,33 @@ def choose_motion(
                 cost = (tb * tb if sqb > 0.0 else 0.0) / max(sqb * sqb, TINY) + tm * tm / (
                     sqm * sqm
                 )
-                if cost < best:
-                    found = True
-                    best = cost
-                    best_n, best_vb, best_vm = na, tb, tm
-                    for k in range(4):
-                        act[k] = trial[k]
+                if found and cost >= best * (1.0 - TIE_COST):
+                    if cost > best * (1.0 + TIE_COST):
+                        continue
+                    # The same rate (as where two corners meet at two places, each contact
+                    # held by one of several vertex-edge pairs): the sets differ at second
+                    # order only, so they are told apart by a short move along each.
+                    if best_cut < 0.0:
+                        best_cut = cut_ahead(table, cand, nc, act, best_n, pb, pm, x0, ym,
+                                             best_vb, best_vm, sqb, sqm)  # fmt: skip
+                    # Both sound a short move ahead (as two ways of pinning one corner
+                    # meeting): the smaller dissipation, as before ties were settled.
+                    if best_cut <= LOOKAHEAD_CUT and cost >= best:
+                        continue
+                    cut = cut_ahead(table, cand, nc, trial, na, pb, pm, x0, ym, tb, tm, sqb, sqm)
+                    if best_cut <= LOOKAHEAD_CUT:
+                        if cut > LOOKAHEAD_CUT:
+                            continue
+                    elif cut >= best_cut - LOOKAHEAD_CUT:
+                        continue
+                    best_cut = cut
+                else:
+                    best_cut = -1.0  # not computed yet
+                found = True
+                best = cost
+                best_n, best_vb, best_vm = na, tb, tm
+                for k in range(4):
+                    act[k] = trial[k]
     if not found:
         return 1, 0, 0.0, 0.0
     return 0, best_n, best_vb, best_vm

@@ -9,6 +9,7 @@ import pytest
 
 import xface_core as xf
 from xface_core._engine.pairs import (
+    _side_of_all,
     clipped_gap,
     corner_distance,
     corner_motion_admissible,
@@ -132,3 +133,19 @@ def test_two_corners_crossing_like_an_x_overlap(pair: int) -> None:
 def test_corners_turned_away_from_each_other_do_not_overlap(pair: int) -> None:
     # V's wedge spans 0..90 degrees, away from the base.
     assert not _crossing(pair, -90.0)
+
+
+@pytest.mark.parametrize("misaligned", [1.04e-12, -1.04e-12, 5e-10, -5e-10])
+def test_rays_on_a_line_to_round_off_count_as_on_it(misaligned: float) -> None:
+    # Two flush corners: each wedge has a ray along the shared line, opposite each other,
+    # one turned by the angles' error. A line along them has every ray on one side either
+    # way round (1.04e-12 rad, just past the old floor of 1e-12 on the dot product, made one
+    # run of a mirror pair jam where the other slid flush).
+    c, s = np.cos(misaligned), np.sin(misaligned)
+    rays = np.array([(1.0, 0.0), (0.0, -1.0), (-c, -s), (0.0, -1.0)])
+    assert _side_of_all(0.0, -1.0, rays)
+
+
+def test_rays_turned_across_a_line_by_more_than_round_off_are_not_on_it() -> None:
+    rays = np.array([(1.0, 0.0), (0.0, -1.0), (-np.cos(1e-6), np.sin(1e-6)), (0.0, -1.0)])
+    assert not _side_of_all(0.0, -1.0, rays)

@@ -21,7 +21,13 @@ from xface_core._engine.motion import (
     tangent,
     velocity,
 )
-from xface_core._engine.pairs import eval_all_pairs, fill_extents, pair_at
+from xface_core._engine.pairs import (
+    COL_EDGE_LENGTH,
+    PAIR_COLUMNS,
+    eval_all_pairs,
+    fill_extents,
+    pair_at,
+)
 from xface_core._engine.records import (
     FREE,
     SLIDE_NEGATIVE,
@@ -98,6 +104,48 @@ def test_no_constraint_needing_motion_gives_rest() -> None:
     result, act = _qp(_ev((1.0, 2.0, 0.0), (0.5, -1.0, -2.0), (1.0, 1.0, 0.5 * TOL)))
     assert result == (0, 0, 0.0, 0.0)
     assert act.tolist() == [-1, -1, -1, -1]
+
+
+def _choose_among(ev: np.ndarray, order: list[int]) -> tuple[int, int, float, float, list[int]]:
+    """choose_motion over contacts inside unit edges (none a corner pair), the candidates in
+    ``order``: (status, n_active, v_b, v_m, the held pairs)."""
+    table = np.zeros((len(ev), PAIR_COLUMNS))
+    table[:, COL_EDGE_LENGTH] = 1.0
+    act = np.full(4, -1, dtype=np.int64)
+    scratch = np.zeros((3, len(ev) + 2), dtype=np.int64)
+    cand = np.array(order, dtype=np.int64)
+    status, n, vb, vm = choose_motion(
+        table, ev, cand, len(ev), 0.0, 0.0, 0.0, 0.0, 1.0, 1.0, act, scratch,
+        np.full(4, -1, dtype=np.int64), np.zeros((4, 2)),
+    )  # fmt: skip
+    return status, n, vb, vm, act[:n].tolist()
+
+
+def _flush(*offsets: float) -> np.ndarray:
+    """Contacts along one flush line, offset s from its middle: a = (1/2 + s, 1/2 - s),
+    beta 1. Every one holds the rate (1, 1) with zero slack, the outermost two push it."""
+    return _ev(*((0.5 + s, 0.5 - s, 1.0) for s in offsets))
+
+
+@pytest.mark.parametrize("order", [[0, 1, 2, 3, 4], [2, 1, 3, 0, 4], [4, 3, 2, 1, 0]])
+def test_a_flush_line_of_contacts_holds_its_outermost_two_in_any_order(order: list[int]) -> None:
+    # Any two of them give the rate (1, 1); only the outermost pair (offsets -0.3 and 0.3,
+    # the largest |det|) can carry a force anywhere on the line. The candidates' order
+    # (pair indices, which a mirror image reverses) used to choose.
+    status, n, vb, vm, held = _choose_among(_flush(-0.3, -0.1, 0.05, 0.2, 0.3), order)
+    assert (status, n, sorted(held)) == (0, 2, [0, 4])
+    assert (vb, vm) == pytest.approx((1.0, 1.0), rel=1e-12)
+
+
+@pytest.mark.parametrize("order", [[0, 1, 2], [2, 1, 0], [1, 2, 0]])
+def test_of_the_tight_pairs_the_widest_whose_forces_push_is_held(order: list[int]) -> None:
+    # All three hold the rate (1, 1) with zero slack. Pairs (0, 2) (|det| 17.6) would need a
+    # pulling force on 0 (multipliers -0.045, 0.102); (1, 2) (|det| 2.4; multipliers 0.33,
+    # 0.083) is the widest that pushes, and (0, 1) (|det| 1) the narrower one.
+    ev = _ev((1.4, -0.4, 1.0), (0.4, 0.6, 1.0), (10.4, 9.6, 20.0))
+    status, n, vb, vm, held = _choose_among(ev, order)
+    assert (status, n, sorted(held)) == (0, 2, [1, 2])
+    assert (vb, vm) == pytest.approx((1.0, 1.0), rel=1e-12)
 
 
 # Gradients on a grid of quarters: near-parallel gradients would make the multipliers, not
