@@ -39,12 +39,6 @@ DEFECTS = {
         "V 0.98/0 at damping ratio 1e-4 (UNRESOLVED up to 1e-3, seated from 1e-2) with friction "
         "0.3-0.46: the event limit is reached"
     ),
-    "FRICTION_MAP_880": (
-        "X 2.12/0.072 at damping ratio 1.3e-3 with friction 0.42: a 7 x 7 map filled by symmetry "
-        "has SEATED at cell (6, 2) where its own simulation ends BAD_MATE: both runs reach a "
-        "turning point of a one-contact slide (y_M 2.36179 D) 3e-9 D apart; one ends there "
-        "(the normal through both pivots), its mirror creeps on 1e-9 D a step, lets go and seats"
-    ),
 }
 
 

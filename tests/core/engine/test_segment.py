@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+import xface_core as xf
 from xface_core._engine.pairs import COL_REACH
 from xface_core._engine.records import (
     E_CONTACT,
@@ -210,3 +211,17 @@ def test_the_step_loop_stops_at_the_first_event_with_the_steps_before_it_taken(i
     assert step.y_m == r["y_m"]  # the run stands at the trial step's start
     touch = incline.y0 - step.y_m + ev.h
     assert touch == pytest.approx(incline.s_touch, abs=2 * OPTS.event_tol)
+
+
+def test_a_frictional_release_at_a_fold_chooses_again_and_both_mirror_runs_seat() -> None:
+    # X H/D 2.1225, r_p 0.0721, damping ratio 1.29e-3, mu 0.42 from x0 = D, theta0 = -pi/6:
+    # the sliding contact's force changes sign within 1.9e-9 D of a fold of its path, which the
+    # step to the release cannot cross. Ended there as a turning point it was BAD_MATE, while
+    # the mirror run, 3e-9 D apart, reached the fold by a slip event, chose again and seated;
+    # Chipmunk2D seats from both (steps 1e-3 to 6.25e-5 D, phi -0.4569 rad at y_M 2.034 D).
+    design = xf.x_face(2.122466788111405, 0.07211328716946366)
+    physics = Physics(damping_ratio=0.0012909326288174934, friction=0.42177297426967)
+    runs = [xf.predict(design, s, -s * np.pi / 6, physics=physics, margins=False) for s in (1, -1)]
+    assert [p.outcome for p in runs] == [xf.Outcome.SEATED, xf.Outcome.SEATED]
+    assert runs[0].phi_m == pytest.approx(-runs[1].phi_m, abs=1e-6)
+    assert runs[0].phi_m == pytest.approx(-0.4569, abs=1e-3)
