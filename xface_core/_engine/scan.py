@@ -216,6 +216,7 @@ def _contact_events(
         # The step searched for this pair's crossing: the whole trial step, or its head up
         # to where the vertex is inside a thin corner it passed through (below).
         search = step
+        through_corner = False
         beside_end = clipped_gap(row, g1, cb1, sb1, cm1, sm1, x0, y1)
         if beside_end > thr[i]:
             # Behind the edge's line at the end, beside a neighbour's: past the corner. If
@@ -227,11 +228,12 @@ def _contact_events(
             if t_in <= 0.0:
                 continue
             search = Step(step.phi_b, step.phi_m, step.y_m, t_in)
+            through_corner = True
         elif not crossed_line and (
             clipped_gap(row, g_prev[i], cb0, sb0, cm0, sm0, x0, step.y_m) <= thr[i]
         ):
             continue  # inside at the start already
-        if search.h == step.h:
+        if not through_corner:
             if rates[0] < 0.0:
                 rates = _turn_rates(seg, step, nb, nm)
             if _far_behind(seg, step, i, thr[i], rates, (cb0, sb0, cm0, sm0), (cb1, sb1, cm1, sm1)):
@@ -242,7 +244,7 @@ def _contact_events(
         # its own. (Several contacts close together at a seat; this spares their searches.)
         # Not for a vertex through a thin corner: its contact function is above the
         # threshold again at the event found (and at the step's end), whatever came first.
-        if best.kind != E_NONE and search.h == step.h:
+        if best.kind != E_NONE and not through_corner:
             if at_h != best.h:
                 at = _trig_after(seg, step, best.h)
                 at_h = best.h
