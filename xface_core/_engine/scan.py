@@ -215,8 +215,7 @@ def _contact_events(
                 continue
         # The step searched for this pair's crossing: the whole trial step, or its head up
         # to where the vertex is inside a thin corner it passed through (below).
-        search = step
-        through_corner = False
+        search, through_corner = step, False
         beside_end = clipped_gap(row, g1, cb1, sb1, cm1, sm1, x0, y1)
         if beside_end > thr[i]:
             # Behind the edge's line at the end, beside a neighbour's: past the corner. If
