@@ -49,6 +49,13 @@ def feasible(ev: FloatArray, cand: IntArray, nc: int, vb: float, vm: float, tol:
 
 
 @njit_no_refcount
+def _tight(ev: FloatArray, j: int, vb: float, vm: float, tol: float) -> bool:
+    """Does candidate j hold the rate ``(vb, vm)`` with zero slack (``a . v = beta`` to
+    ``tol`` relative to 1 + |beta|)?"""
+    return not abs(ev[j, 2] * vb + ev[j, 3] * vm - ev[j, 4]) > tol * (1.0 + abs(ev[j, 4]))
+
+
+@njit_no_refcount
 def widest_pair(
     ev: FloatArray, cand: IntArray, nc: int, sqb: float, sqm: float, tol: float, vb: float,
     vm: float, act: IntArray, nact: int,
@@ -71,8 +78,7 @@ def widest_pair(
     """
     zero = 0
     for k in range(nc):
-        j = cand[k]
-        if abs(ev[j, 2] * vb + ev[j, 3] * vm - ev[j, 4]) <= tol * (1.0 + abs(ev[j, 4])):
+        if _tight(ev, cand[k], vb, vm, tol):
             zero += 1
     if zero <= 2:
         return nact
@@ -81,12 +87,12 @@ def widest_pair(
     first, second = act[0], act[1]
     for k in range(nc):
         i = cand[k]
-        if abs(ev[i, 2] * vb + ev[i, 3] * vm - ev[i, 4]) > tol * (1.0 + abs(ev[i, 4])):
+        if not _tight(ev, i, vb, vm, tol):
             continue
         ab1, am1 = ev[i, 2] * sqb, ev[i, 3] * sqm
         for m in range(k + 1, nc):
             j = cand[m]
-            if abs(ev[j, 2] * vb + ev[j, 3] * vm - ev[j, 4]) > tol * (1.0 + abs(ev[j, 4])):
+            if not _tight(ev, j, vb, vm, tol):
                 continue
             ab2, am2 = ev[j, 2] * sqb, ev[j, 3] * sqm
             det = ab1 * am2 - am1 * ab2
@@ -145,8 +151,7 @@ def solve_qp(
                 j = cand[m]
                 if j == i:
                     continue
-                slack = ev[j, 2] * vb + ev[j, 3] * vm - ev[j, 4]
-                if abs(slack) > tol * (1.0 + abs(ev[j, 4])):
+                if not _tight(ev, j, vb, vm, tol):
                     continue
                 ab2 = ev[j, 2] * sqb
                 am2 = ev[j, 3] * sqm

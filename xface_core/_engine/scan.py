@@ -302,14 +302,13 @@ def _inside_thin_corner(
     t = 0.5 * (t_edge + t_side)
     b = start_bracket(0.0, gaps[0], step.h, gaps[1])
     while b[HI] - b[LO] > tol:
-        pb, pm = angles_at(seg, step, t)
-        cb, sb, cm, sm = math.cos(pb), math.sin(pb), math.cos(pm), math.sin(pm)
+        cb, sb, cm, sm = _trig(*angles_at(seg, step, t))
         y = step.y_m - t
         g, _, _, _, _, _, _, _, _ = eval_pair(row, cb, sb, cm, sm, x0, y)
         outside = clipped_gap(row, -math.inf, cb, sb, cm, sm, x0, y) > thr
         if g <= thr and not outside:
             pb, pm, _, _, ok = step_to(seg, step, t)
-            cb, sb, cm, sm = math.cos(pb), math.sin(pb), math.cos(pm), math.sin(pm)
+            cb, sb, cm, sm = _trig(pb, pm)
             g, _, _, _, _, _, _, _, _ = eval_pair(row, cb, sb, cm, sm, x0, y)
             if ok and g <= thr and clipped_gap(row, g, cb, sb, cm, sm, x0, y) <= thr:
                 return t
