@@ -34,12 +34,7 @@ Run: Any = range_probe.Run
 ENGINE_DEFECT = "engine defect inside the verified range (issue 37): "
 
 #: Why each reproducer inside the range still fails, by its "defect" key in the data file.
-DEFECTS = {
-    "LIGHT_BASE_9": (
-        "V 0.98/0 at damping ratio 1e-4 (UNRESOLVED up to 1e-3, seated from 1e-2) with friction "
-        "0.3-0.46: the event limit is reached"
-    ),
-}
+DEFECTS: dict[str, str] = {}
 
 
 def _reproducers(group: str) -> list[Any]:

@@ -581,6 +581,28 @@ def choose_motion(
 
 
 @njit_no_refcount
+def _slips_back(
+    table: FloatArray, i: int, x0: float, mode: int, pb: float, pm: float, ym: float,
+    vb: float, vm: float,
+) -> bool:  # fmt: skip
+    """Does pair i, sliding in direction ``mode`` at the rate ``(vb, vm)`` (rad per D), slip
+    against that direction at the state itself, by more than SLIP_FLOOR times the size of
+    its slip rate's terms?
+
+    Ahead it slips the right way (:func:`friction_modes` judged it there), but an explicit
+    move ahead can overshoot: with a very light base the slide's rate relaxes within about
+    1e-5 D onto a path that still slips backwards (the base's rate is its moment over a tiny
+    damping). The segment then fired its slip event at once, the same slide was chosen again,
+    and the run stood still until the event budget: V H/D 0.98, r_p 0, damping ratio 1e-4,
+    mu 0.46 (400 events at one state), where sticking, with the force on the cone, is
+    consistent (scripts/evidence/two_contact_coulomb.py's enumeration agrees).
+    """
+    cb, cm, gam = tangent(table, i, pb, pm, x0, ym)
+    floor = SLIP_FLOOR * (abs(cb * vb) + abs(cm * vm) + abs(gam))
+    return bool(mode * (cb * vb + cm * vm + gam) < -floor)
+
+
+@njit_no_refcount
 def friction_modes(held: Contacts, pb: float, pm: float, ym: float, v0b: float, v0m: float) -> bool:
     """Choose each active contact's friction state (``held.slip[k]``) at the state
     ``(pb, pm, ym)`` where the frictionless rate is ``(v0b, v0m)`` (rad per D); False for a
@@ -589,9 +611,10 @@ def friction_modes(held: Contacts, pb: float, pm: float, ym: float, v0b: float, 
     The active set is the frictionless one (least dissipation); friction then sets the motion
     within it. One contact: slide in the direction the frictionless motion slips, else the
     other way, else stick; each must be consistent (lambda >= 0, the slip keeps its sign, a
-    stuck contact's force inside the cone). Quasi-static Coulomb problems can admit several
-    consistent states; this order picks one deterministically. Two contacts fix the rate, so
-    each slips the way that rate makes it slip.
+    stuck contact's force inside the cone), and a slide that slips backwards at the state
+    itself (:func:`_slips_back`) is taken only when nothing else is. Quasi-static Coulomb
+    problems can admit several consistent states; this order picks one deterministically.
+    Two contacts fix the rate, so each slips the way that rate makes it slip.
     """
     table, act, nact = held.pairs, held.act, held.n_active
     mu, slip, x0 = held.mu, held.slip, held.x0
@@ -616,6 +639,7 @@ def friction_modes(held: Contacts, pb: float, pm: float, ym: float, v0b: float, 
     cb, cm, gam = tangent(table, act[0], pb, pm, x0, ym)
     slip0 = cb * v0b + cm * v0m + gam
     first = SLIDE_POSITIVE if slip0 >= 0.0 else SLIDE_NEGATIVE
+    deferred = FREE  # a slide that slips backwards at the state itself (_slips_back)
     for mode in (first, -first, STICK):
         slip[0] = mode
         vb, vm, lam, _ = velocity(held, pb, pm, ym)
@@ -634,6 +658,10 @@ def friction_modes(held: Contacts, pb: float, pm: float, ym: float, v0b: float, 
             tb, tm, tg = tangent(table, act[0], qb, qm, x0, yy)
             floor = SLIP_FLOOR * (abs(tb * wb) + abs(tm * wm) + abs(tg))
             if mode * (tb * wb + tm * wm + tg) > floor:
-                return True
-    slip[0] = FREE
-    return False
+                if not _slips_back(table, act[0], x0, mode, pb, pm, ym, vb, vm):
+                    return True
+                if deferred == FREE:
+                    deferred = mode
+    # Chosen only when neither stick nor the other slide is consistent.
+    slip[0] = deferred
+    return deferred != FREE

@@ -28,9 +28,11 @@ from .records import (
     E_NONE,
     E_OFF_EDGE,
     E_RELEASE,
+    E_SLIP,
     E_SPUN,
     E_TURN,
     FOLD_RISE,
+    FREE,
     MAX_TURN,
     O_BAD_MATE,
     O_UNRESOLVED,
@@ -40,6 +42,7 @@ from .records import (
     R_SINGULAR,
     R_SPUN,
     R_STEP_LIMIT,
+    STICK,
     TINY,
     TOUCH_WINDOW,
     UNDECIDED,
@@ -318,6 +321,14 @@ def handle_event(
     work.sleep_holds[0] = 1
 
 
+@njit_no_refcount
+def _slides_alone(seg: Segment) -> bool:
+    """Is the segment held by one contact that slides with friction?"""
+    held = seg.held
+    sliding = held.slip[0] != FREE and held.slip[0] != STICK
+    return bool(held.n_active == 1 and held.mu > 0.0 and sliding)
+
+
 #: How the step loop of a segment stopped (:func:`steps_to_event`).
 LOOP_EVENT = 0  # an event inside the last trial step: handle it
 LOOP_DIVERGED = 1  # the trial length collapsed: the rate diverges ahead (a turning point)
@@ -370,7 +381,17 @@ def follow_contacts(
     """Integrate with the active set fixed until the next event, and handle it."""
     start_segment(model, opts, run, work, path, path_pairs)
     seg = _segment(model, opts, run, work)
+    y_begun = run.y_m
     stop, step, ev = steps_to_event(opts, seg, run, work, path, path_pairs)
+    if stop == LOOP_DIVERGED and run.y_m < y_begun and _slides_alone(seg):
+        # A lone sliding contact whose rate runs away: with a very light base the slide's
+        # slip can turn over so fast that the trial length collapses before the slip event
+        # is bracketed (the mirror run of V H/D 0.98, r_p 0, damping ratio 1e-4, mu 0.46
+        # bracketed it 1e-11 D earlier, chose to stick and seated; this one ended as a
+        # turning point). Choose again from the last good state, as after a slip event; a
+        # segment that diverges without moving still ends as a turning point below.
+        ev = Event(E_SLIP, seg.held.act[0], 0.0)
+        stop = LOOP_EVENT
     if stop == LOOP_EVENT:
         handle_event(model, opts, run, work, seg, step, ev, path, path_pairs)
     elif stop == LOOP_DIVERGED:

@@ -225,3 +225,34 @@ def test_a_frictional_release_at_a_fold_chooses_again_and_both_mirror_runs_seat(
     assert [p.outcome for p in runs] == [xf.Outcome.SEATED, xf.Outcome.SEATED]
     assert runs[0].phi_m == pytest.approx(-runs[1].phi_m, abs=1e-6)
     assert runs[0].phi_m == pytest.approx(-0.4569, abs=1e-3)
+
+
+#: V H/D 0.98, r_p 0, mu 0.46 from x0 = -0.494 D, theta0 = 0.706 (issue 37's probe, run 9): a
+#: single contact whose force sits on its friction cone while a very light base turns fast.
+LIGHT_BASE = xf.v_face(0.9822283062413161, 0.0, width=12.800598349870178)
+LIGHT_BASE_POSE = (-0.4943404346891451 * 12.800598349870178, 0.7059746373216553)
+LIGHT_BASE_MU = 0.4589249111199053
+
+
+def test_a_light_base_sticks_where_its_slide_slips_backwards_at_once() -> None:
+    # At damping ratio 1e-3 the slide chosen a short move ahead slipped backwards on the
+    # segment's path at once; choosing it again, the run stood still until the event budget
+    # (UNRESOLVED). Sticking there is consistent (two_contact_coulomb.py's enumeration), and
+    # Chipmunk2D seats at phi 0.5274 rad at steps 1e-4, 5e-5 and 2.5e-5 D.
+    physics = Physics(damping_ratio=1e-3, friction=LIGHT_BASE_MU)
+    p = xf.predict(LIGHT_BASE, *LIGHT_BASE_POSE, physics=physics, margins=False)
+    assert p.outcome is xf.Outcome.SEATED
+    assert p.phi_m == pytest.approx(0.5274, abs=1e-3)
+
+
+def test_a_lone_slide_whose_rate_runs_away_chooses_again_and_both_mirror_runs_seat() -> None:
+    # At damping ratio 1e-4 the slide's slip turns over so fast that one run's trial length
+    # collapsed before its slip event was bracketed (ended BAD_MATE as a turning point) while
+    # its mirror run bracketed it, chose to stick and seated. Both now seat, mirrored.
+    physics = Physics(damping_ratio=1e-4, friction=LIGHT_BASE_MU)
+    x0, theta0 = LIGHT_BASE_POSE
+    runs = [
+        xf.predict(LIGHT_BASE, s * x0, s * theta0, physics=physics, margins=False) for s in (1, -1)
+    ]
+    assert [p.outcome for p in runs] == [xf.Outcome.SEATED, xf.Outcome.SEATED]
+    assert runs[0].phi_m == pytest.approx(-runs[1].phi_m, abs=1e-6)
