@@ -17,8 +17,9 @@ the design on one thread for ``--seconds``. The second form prints the share of 
 function and libm routine among the samples in engine code and libm (the compilation, the
 interpreter and numpy are left out), largest first.
 
-Functions LLVM inlined into their caller count as the caller; libm's ``sincos`` and
-``hypot`` are listed on their own.
+Functions LLVM inlined into their caller count as the caller (most of the engine: by default
+the map names the batch entry and little else); ``--apart`` keeps them apart, at the cost of a
+call each. libm's ``sincos`` and ``hypot`` are listed on their own.
 """
 
 from __future__ import annotations
@@ -70,11 +71,25 @@ def write_perf_map(entry: object, package: object, path: Path) -> int:
     return len(found)
 
 
+def compile_afresh_env(environ: dict[str, str], cache: Path, apart: bool) -> dict[str, str]:
+    """``environ`` for a process that compiles every engine function itself: numba's cache in
+    the empty folder ``cache``, and an empty folder (made in it) in place of the precompiled
+    engine. A kernel loaded from numba's cache or from the shipped build
+    (:mod:`xface_core._engine.precompiled`) knows only its entry points: the map then named
+    3 functions. ``apart``: compiled with debug info, which numba marks noinline."""
+    shipped = cache / "no-precompiled-engine"
+    shipped.mkdir(exist_ok=True)
+    env = dict(environ, NUMBA_CACHE_DIR=str(cache), XFACE_PRECOMPILED_DIR=str(shipped))
+    if apart:
+        env["NUMBA_DEBUGINFO"] = "1"
+    return env
+
+
 def _run(args: argparse.Namespace, argv: list[str]) -> int:
     if "NUMBA_CACHE_DIR" not in os.environ:
-        # Restart with an empty cache, so that every engine function is compiled here.
+        # Restart, so that every engine function is compiled here.
         with tempfile.TemporaryDirectory(prefix="xface-profile-") as cache:
-            env = dict(os.environ, NUMBA_CACHE_DIR=cache)
+            env = compile_afresh_env(dict(os.environ), Path(cache), args.apart)
             return subprocess.call([sys.executable, __file__, *argv], env=env)
     import numpy as np
 
@@ -165,6 +180,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--poses", type=Path,
         help="profile these poses instead of maps: an .npz with arrays x0 (D) and theta0 (rad)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--apart", action="store_true",
+        help="keep every engine function apart (compiled with debug info, which numba marks "
+        "noinline): each gets its own share, but calls cost more (maps about twice as slow), "
+        "so small functions called often are over-counted",
     )  # fmt: skip
     parser.add_argument("--report", type=Path, help="print the shares of a recorded profile")
     argv = sys.argv[1:] if argv is None else argv

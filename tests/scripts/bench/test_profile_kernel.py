@@ -53,6 +53,22 @@ def test_perf_map_lists_the_batch_entry_with_its_address(tmp_path: Path) -> None
         assert int(size, 16) > 0
 
 
+def test_the_profiled_process_compiles_past_numba_s_cache_and_the_shipped_engine(
+    tmp_path: Path,
+) -> None:
+    env = profile.compile_afresh_env({"PATH": "/bin"}, tmp_path, apart=False)
+    assert env["NUMBA_CACHE_DIR"] == str(tmp_path)
+    shipped = Path(env["XFACE_PRECOMPILED_DIR"])
+    assert shipped.is_dir()
+    assert not any(shipped.iterdir())
+    assert "NUMBA_DEBUGINFO" not in env
+    assert env["PATH"] == "/bin"
+
+
+def test_apart_compiles_with_debug_info_so_no_engine_function_is_inlined(tmp_path: Path) -> None:
+    assert profile.compile_afresh_env({}, tmp_path, apart=True)["NUMBA_DEBUGINFO"] == "1"
+
+
 def test_a_missing_profile_is_refused_without_a_traceback(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
