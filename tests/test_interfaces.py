@@ -3,8 +3,9 @@ keys of every command's JSON output and the node's parameters, against ``tests/i
 
 The stored file was written before the core's regroup (on fe80e66, the last commit of the flat
 layout) by ``scripts/evidence/interface_snapshot.py --write tests/interfaces.json``; a change
-that means to extend the interface rewrites it in the same commit and says so. Topics and
-services are checked over DDS (tests/ros/test_interface_names.py).
+that means to extend the interface rewrites it in the same commit and says so. The node's
+topics and services were added on 2026-11-29 from ``xface_ros.names``, the lists the DDS check
+(tests/ros/test_interface_names.py) held until then, unchanged; that check now reads them here.
 """
 
 from __future__ import annotations
@@ -53,6 +54,11 @@ def test_every_json_output_keeps_its_keys() -> None:
 def test_the_node_keeps_its_parameters_and_defaults() -> None:
     pytest.importorskip("xface_ros.config")
     assert SNAPSHOT.ros_parameters() == STORED["ros_parameters"]
+
+
+def test_the_node_keeps_its_topics_and_services() -> None:
+    pytest.importorskip("xface_ros.names")
+    assert SNAPSHOT.ros_interface() == STORED["ros_interface"]
 
 
 def test_key_paths_name_nested_keys_and_list_items() -> None:

@@ -45,6 +45,8 @@ from pathlib import Path
 from types import FrameType
 from typing import TYPE_CHECKING, Any
 
+from xface_ros import names
+
 if TYPE_CHECKING:  # imported at run time only after the environment is set (main)
     from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
     from rclpy.executors import Executor
@@ -288,12 +290,12 @@ class _Listener:
         self.node_status: DiagnosticStatus | None = None  # the node's latest predictor status
         self.node = rclpy.create_node("xface_demo_listener")
         self.status_sub = self.node.create_subscription(
-            DiagnosticStatus, "prediction/status", self.show, RESULT_QOS
+            DiagnosticStatus, names.STATUS, self.show, RESULT_QOS
         )
         self.node.create_subscription(
-            DiagnosticArray, "/diagnostics", self.keep_node_status, RESULT_QOS
+            DiagnosticArray, names.DIAGNOSTICS, self.keep_node_status, RESULT_QOS
         )
-        self.client = self.node.create_client(GetPlan, "predict")
+        self.client = self.node.create_client(GetPlan, names.PREDICT)
         executor.add_node(self.node)
 
     def show(self, status: DiagnosticStatus) -> None:
@@ -334,7 +336,7 @@ class _Listener:
         return bool(
             self.client.service_is_ready()
             and self.status_sub.get_publisher_count() > 0
-            and self.node.count_subscribers("relative_pose") > 0
+            and self.node.count_subscribers(names.POSES) > 0
         )
 
 

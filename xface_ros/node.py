@@ -64,6 +64,7 @@ from rclpy.utilities import remove_ros_args
 from std_msgs.msg import Bool, Header
 from visualization_msgs.msg import MarkerArray
 
+from xface_ros import names
 from xface_ros.atlas_keeper import AtlasKeeper
 from xface_ros.config import (
     CUSTOM_FACE,
@@ -206,14 +207,14 @@ class _Predictor(Node):
 
     def _make_outputs(self) -> None:
         """Publishers, the recording and the worker (not started: its thread warms up first)."""
-        self._accepted_pub = self._publisher(Bool, "prediction/accepted", RESULT_QOS)
-        self._status_pub = self._publisher(DiagnosticStatus, "prediction/status", RESULT_QOS)
-        self._path_pub = self._publisher(Path, "prediction/path", BULK_QOS)
-        self._seated_pub = self._publisher(PoseStamped, "prediction/seated_pose", LATCHED_QOS)
-        self._markers_pub = self._publisher(MarkerArray, "prediction/markers", BULK_QOS)
-        self._diagnostics_pub = self._publisher(DiagnosticArray, "/diagnostics", RESULT_QOS)
+        self._accepted_pub = self._publisher(Bool, names.ACCEPTED, RESULT_QOS)
+        self._status_pub = self._publisher(DiagnosticStatus, names.STATUS, RESULT_QOS)
+        self._path_pub = self._publisher(Path, names.PATH, BULK_QOS)
+        self._seated_pub = self._publisher(PoseStamped, names.SEATED_POSE, LATCHED_QOS)
+        self._markers_pub = self._publisher(MarkerArray, names.MARKERS, BULK_QOS)
+        self._diagnostics_pub = self._publisher(DiagnosticArray, names.DIAGNOSTICS, RESULT_QOS)
         if self._typed_problem is None:
-            self._result_pub = self._publisher(DockPrediction, "prediction/result", RESULT_QOS)
+            self._result_pub = self._publisher(DockPrediction, names.RESULT, RESULT_QOS)
         self._recorder = Recorder.open(self.config, self.get_logger())
         self._worker = PredictionWorker(
             config=lambda: self.config,
@@ -230,7 +231,7 @@ class _Predictor(Node):
         """The pose subscriptions, the services and the diagnostics timer."""
         pose_sub = self.create_subscription(
             PoseStamped,
-            "relative_pose",
+            names.POSES,
             self._on_pose,
             qos_profile_sensor_data,
             callback_group=ReadByPoseReader(),
@@ -240,7 +241,7 @@ class _Predictor(Node):
         # probability (and, below min_seat_probability, a suggested correction).
         cov_sub = self.create_subscription(
             PoseWithCovarianceStamped,
-            "relative_pose_with_covariance",
+            names.POSES_WITH_COVARIANCE,
             self._on_pose_with_covariance,
             qos_profile_sensor_data,
             callback_group=ReadByPoseReader(),
@@ -250,7 +251,7 @@ class _Predictor(Node):
         self._pose_reader.start()
         plan_service = self.create_service(
             GetPlan,
-            "predict",
+            names.PREDICT,
             self._on_predict_request,
             callback_group=MutuallyExclusiveCallbackGroup(),
         )
@@ -258,7 +259,7 @@ class _Predictor(Node):
         # to build), the status of prediction/status plus "answer" (docs/ros.md says why).
         status_service = self.create_service(
             SelfTest,
-            "predict_status",
+            names.PREDICT_STATUS,
             self._on_status_request,
             callback_group=MutuallyExclusiveCallbackGroup(),
         )
@@ -278,7 +279,7 @@ class _Predictor(Node):
             # The typed answer: a DockPrediction and the path (docs/ros.md, predict_dock).
             dock_service = self.create_service(
                 PredictDock,
-                "predict_dock",
+                names.PREDICT_DOCK,
                 self._on_predict_dock_request,
                 callback_group=MutuallyExclusiveCallbackGroup(),
             )
@@ -453,7 +454,7 @@ class _Predictor(Node):
             evaluate_query, pose_input(request.start), config,
             tolerance_m=float(request.tolerance),
         )  # fmt: skip
-        response.plan = self._answer_path(verdict, config, "predict")
+        response.plan = self._answer_path(verdict, config, names.PREDICT)
         return response
 
     def _on_predict_dock_request(self, request: Any, response: Any) -> Any:
@@ -479,7 +480,7 @@ class _Predictor(Node):
             required_margin_m=required_margin or config.min_margin,
             required_probability=required_probability or config.min_seat_probability,
         )  # fmt: skip
-        response.path = self._answer_path(verdict, config, "predict_dock")
+        response.path = self._answer_path(verdict, config, names.PREDICT_DOCK)
         return response
 
     def _answer_path(self, verdict: Verdict, config: NodeConfig, service: str) -> Path:

@@ -24,6 +24,7 @@ from rclpy.parameter import Parameter
 from rclpy.qos import qos_profile_sensor_data
 
 from xface_core.frames import DockStart, start_to_relative_pose
+from xface_ros import names
 from xface_ros.conversions import planar_to_pose
 
 __all__ = ["DEMO_SWEEP", "PoseSource", "main"]
@@ -68,7 +69,7 @@ class PoseSource(Node):
         self.base_frame = str(self.declare_parameter("base_frame", "xface_base").value)
         self._sweep = list(sweep)
         self._index = 0
-        self._pub = self.create_publisher(PoseStamped, "relative_pose", qos_profile_sensor_data)
+        self._pub = self.create_publisher(PoseStamped, names.POSES, qos_profile_sensor_data)
         self._timer = self.create_timer(1.0 / rate_hz, self.publish_next)
 
     def pose_of(self, x0_widths: float, theta0: float) -> PoseStamped:

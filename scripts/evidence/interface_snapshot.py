@@ -4,10 +4,11 @@
 
 What it holds: ``xface_core.__all__``; every ``xface`` command with its options; the key
 paths of each command's ``--json`` output on small runs (nested keys joined by ``.``, list
-items as ``[]``); the node's parameters with their defaults (``xface_ros.config.SPECS``, no
-ROS imported). ``tests/test_interfaces.py`` compares the working tree's snapshot with the
-stored one; the node's topics and services are checked over DDS in
-``tests/ros/test_interface_names.py`` against the same file.
+items as ``[]``); the node's parameters with their defaults (``xface_ros.config.SPECS``) and
+its topics and services by name and type (``xface_ros.names``), no ROS imported.
+``tests/test_interfaces.py`` compares the working tree's snapshot with the stored one; the
+node's topics and services are checked over DDS in ``tests/ros/test_interface_names.py``
+against the same file.
 """
 
 from __future__ import annotations
@@ -91,6 +92,19 @@ def ros_parameters() -> dict[str, Any]:
     return {spec.name: spec.default for spec in SPECS}
 
 
+def ros_interface() -> dict[str, Any]:
+    """The node's topics and services by name and type (``xface_ros.names``, no ROS imported),
+    and which of them need the typed interface ``xface_msgs``."""
+    from xface_ros import names
+
+    return {
+        "publishes": dict(names.PUBLISHES),
+        "subscribes": dict(names.SUBSCRIBES),
+        "serves": dict(names.SERVES),
+        "typed": sorted(names.TYPED),
+    }
+
+
 def snapshot() -> dict[str, Any]:
     import xface_core
 
@@ -99,6 +113,7 @@ def snapshot() -> dict[str, Any]:
         "commands": commands(),
         "json_keys": json_keys(),
         "ros_parameters": ros_parameters(),
+        "ros_interface": ros_interface(),
     }
 
 

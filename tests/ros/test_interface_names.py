@@ -1,9 +1,12 @@
 """The node's topics and services, by name and type, as a planner or a launch file sees them
-over DDS: the contract docs/ros.md documents (a change of it is a change of the interface)."""
+over DDS, against the contract stored in tests/interfaces.json (docs/ros.md documents it; a
+change of it is a change of the interface)."""
 
 from __future__ import annotations
 
+import json
 import time
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -15,26 +18,28 @@ NODE_NAME = "xface_predictor"
 
 pytestmark = pytest.mark.ros
 
-PUBLISHES = {
-    "/prediction/accepted": "std_msgs/msg/Bool",
-    "/prediction/status": "diagnostic_msgs/msg/DiagnosticStatus",
-    "/prediction/path": "nav_msgs/msg/Path",
-    "/prediction/seated_pose": "geometry_msgs/msg/PoseStamped",
-    "/prediction/markers": "visualization_msgs/msg/MarkerArray",
-    "/diagnostics": "diagnostic_msgs/msg/DiagnosticArray",
-}
-SUBSCRIBES = {
-    "/relative_pose": "geometry_msgs/msg/PoseStamped",
-    "/relative_pose_with_covariance": "geometry_msgs/msg/PoseWithCovarianceStamped",
-}
-SERVES = {
-    "/predict": "nav_msgs/srv/GetPlan",
-    "/predict_status": "diagnostic_msgs/srv/SelfTest",
-}
-#: The typed interface, where xface_msgs is built (docs/ros.md, "The typed interface").
-if typed_interface_problem() is None:
-    PUBLISHES["/prediction/result"] = "xface_msgs/msg/DockPrediction"
-    SERVES["/predict_dock"] = "xface_msgs/srv/PredictDock"
+#: The stored contract (tests/interfaces.json, "ros_interface"): written from xface_ros.names by
+#: scripts/evidence/interface_snapshot.py and kept by tests/test_interfaces.py.
+STORED: dict[str, Any] = json.loads(
+    (Path(__file__).resolve().parents[1] / "interfaces.json").read_text("utf-8")
+)["ros_interface"]
+#: Where the typed interface is not built, its topic and service do not exist.
+ABSENT = set() if typed_interface_problem() is None else set(STORED["typed"])
+
+
+def _as_seen(entries: dict[str, str]) -> dict[str, str]:
+    """Names as the graph shows them for a node in the root namespace (absolute), and the
+    entries that exist here."""
+    return {
+        (name if name.startswith("/") else f"/{name}"): kind
+        for name, kind in entries.items()
+        if name not in ABSENT
+    }
+
+
+PUBLISHES = _as_seen(STORED["publishes"])
+SUBSCRIBES = _as_seen(STORED["subscribes"])
+SERVES = _as_seen(STORED["serves"])
 
 
 def _graph(client: Any, query: str) -> dict[str, str]:
