@@ -20,6 +20,7 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Patch
 from matplotlib.transforms import offset_copy
 
+from xface_core.viz import palette
 from xface_core.viz.figures import PictureFormat, fit_axes, new_figure, picture_format, save
 from xface_core.viz.mapdiff import MapDifference, SeatedIn, in_units_of_d, map_difference
 from xface_core.viz.mapgrid import AcceptanceMapLike, check_scale, checked_grid
@@ -43,9 +44,9 @@ MIN_PANEL_PIXELS = 200
 #: both, a pale grey for neither.
 DIFFERENCE_COLORS: dict[SeatedIn, tuple[int, int, int]] = {
     SeatedIn.NEITHER: (235, 235, 235),
-    SeatedIn.ONLY_A: (0, 114, 178),
-    SeatedIn.ONLY_B: (230, 159, 0),
-    SeatedIn.BOTH: (0, 158, 115),
+    SeatedIn.ONLY_A: palette.BLUE,
+    SeatedIn.ONLY_B: palette.ORANGE,
+    SeatedIn.BOTH: palette.BLUISH_GREEN,
 }
 
 _NAMES = {

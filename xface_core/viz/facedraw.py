@@ -31,6 +31,7 @@ import numpy.typing as npt
 from xface_core.frames import check_facing
 from xface_core.geometry import FaceDesign
 from xface_core.runner import check_pose, start_height
+from xface_core.viz.palette import BASE_LAYERS, BLACK, MOVING_LAYERS, hex_color
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -200,10 +201,10 @@ def face_drawing(
 #: Colours per layer (layer k takes k % 2), those of the rerun recording: blue and sky blue
 #: for the base, vermillion and orange for the moving part (Okabe-Ito, colour-blind safe).
 _PART_COLORS: dict[Part, tuple[str, str]] = {
-    "base": ("#0072b2", "#56b4e9"),
-    "moving": ("#d55e00", "#e69f00"),
+    "base": (hex_color(BASE_LAYERS[0]), hex_color(BASE_LAYERS[1])),
+    "moving": (hex_color(MOVING_LAYERS[0]), hex_color(MOVING_LAYERS[1])),
 }
-_PIVOT_COLOR = "#000000"
+_PIVOT_COLOR = hex_color(BLACK)
 #: Pixels per length unit are chosen so that the larger side of the largest panel has this
 #: many pixels.
 _PANEL_PX = 420

@@ -22,6 +22,7 @@ import numpy.typing as npt
 from xface_core.codes import Outcome
 from xface_core.errors import XfaceValueError
 from xface_core.geometry import FaceDesign
+from xface_core.viz import palette
 
 __all__ = [
     "GUARANTEED_OUTLINE",
@@ -34,7 +35,7 @@ __all__ = [
     "region_cells",
 ]
 
-RGB = tuple[int, int, int]
+RGB = palette.RGB
 
 # Okabe-Ito colours (distinguishable with the common colour-vision deficiencies); SEATED is
 # the green that the eye reads as "good", the failure modes are warm, the "not simulated"
@@ -42,15 +43,15 @@ RGB = tuple[int, int, int]
 _COLORS: dict[Outcome, RGB] = {
     Outcome.INVALID_INPUT: (64, 64, 64),
     Outcome.OUT_OF_REACH: (190, 190, 190),
-    Outcome.NO_CONTACT: (86, 180, 233),
-    Outcome.SEATED: (0, 158, 115),
-    Outcome.BAD_MATE: (213, 94, 0),
-    Outcome.PASSED: (230, 159, 0),
-    Outcome.UNRESOLVED: (204, 121, 167),
+    Outcome.NO_CONTACT: palette.SKY_BLUE,
+    Outcome.SEATED: palette.BLUISH_GREEN,
+    Outcome.BAD_MATE: palette.VERMILLION,
+    Outcome.PASSED: palette.ORANGE,
+    Outcome.UNRESOLVED: palette.REDDISH_PURPLE,
 }
 
 #: Outline colour of the guaranteed-acceptance rectangle (black reads on every cell colour).
-GUARANTEED_OUTLINE: RGB = (0, 0, 0)
+GUARANTEED_OUTLINE: RGB = palette.BLACK
 
 
 class AcceptanceMapLike(Protocol):

@@ -85,6 +85,7 @@ from xface_core.errors import XfaceValueError
 from xface_core.geometry import FaceDesign
 from xface_core.result import Phase, Prediction
 
+from . import palette
 from .mapimage import AcceptanceMapLike, checked_grid, guaranteed_cells, outcome_colors
 
 __all__ = [
@@ -101,15 +102,15 @@ FloatArray = npt.NDArray[np.float64]
 #: Maps the world (y up) onto rerun's 2-D view space (y down): a mirror about the x axis.
 _Y_UP = rr.Transform3D(mat3x3=[[1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, 1.0]])
 
-_BASE_COLORS = [(0, 114, 178), (86, 180, 233)]  # per layer: blue, sky blue
-_MOVING_COLORS = [(213, 94, 0), (230, 159, 0)]  # per layer: vermillion, orange
+_BASE_COLORS = palette.BASE_LAYERS
+_MOVING_COLORS = palette.MOVING_LAYERS
 _TARGET_COLOR = (150, 150, 150)
-_CONTACT_COLOR = (204, 121, 167)
-_PIVOT_COLOR = (240, 228, 66)
+_CONTACT_COLOR = palette.REDDISH_PURPLE
+_PIVOT_COLOR = palette.YELLOW
 _PHASE_COLORS = {
-    Phase.APPROACH: (86, 180, 233),
-    Phase.ALIGN: (230, 159, 0),
-    Phase.SLIDE: (0, 158, 115),
+    Phase.APPROACH: palette.SKY_BLUE,
+    Phase.ALIGN: palette.ORANGE,
+    Phase.SLIDE: palette.BLUISH_GREEN,
     Phase.END: (150, 150, 150),
 }
 _LINE = rr.Radius.ui_points(1.5)
