@@ -7,7 +7,7 @@ Every exception derives from :class:`XfaceError`; the value errors also derive f
 from __future__ import annotations
 
 import math
-from numbers import Integral
+from numbers import Integral, Real
 
 __all__ = [
     "Cancelled",
@@ -57,3 +57,18 @@ def is_integer_in(value: object, lo: int, hi: float = math.inf) -> bool:
     if isinstance(value, bool) or not isinstance(value, Integral):
         return False
     return lo <= int(value) <= hi
+
+
+def real_number(value: object) -> float | None:
+    """``value`` as a float if it is a real number (a numpy number too, never a bool), else
+    None: the one rule behind the checks of real arguments (each raises its own message).
+    NaN and infinities pass as floats: the callers' range checks refuse them."""
+    if isinstance(value, bool) or not isinstance(value, Real):
+        return None
+    return float(value)
+
+
+def is_positive_up_to(value: object, hi: float) -> bool:
+    """True for a real number (:func:`real_number`) with ``0 < value <= hi`` (never NaN)."""
+    number = real_number(value)
+    return number is not None and 0.0 < number <= hi

@@ -32,7 +32,7 @@ from typing import Any
 
 import yaml
 
-from .errors import FaceFileError, XfaceValueError
+from .errors import FaceFileError, XfaceValueError, real_number
 from .geometry import FaceDesign, custom_face
 
 __all__ = [
@@ -333,14 +333,15 @@ def _read(path: Path) -> dict[str, Any]:
 
 
 def _is_number(value: object) -> bool:
-    return isinstance(value, int | float) and not isinstance(value, bool)
+    return real_number(value) is not None
 
 
 def _number(doc: dict[str, Any], key: str, default: float | None = None) -> float:
     value = doc.get(key, default)
-    if isinstance(value, bool) or not isinstance(value, int | float):
+    number = real_number(value)
+    if number is None:
         raise FaceFileError(f"{key} must be a number, got {reprlib.repr(value)}")
-    return float(value)
+    return number
 
 
 def _vertices(points: Any, name: str) -> list[tuple[float, float]]:

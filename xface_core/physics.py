@@ -11,10 +11,9 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, fields, replace
-from numbers import Real
 from typing import cast
 
-from .errors import XfaceValueError, is_integer_in
+from .errors import XfaceValueError, is_integer_in, real_number
 
 __all__ = [
     "DEFAULT_PHYSICS",
@@ -36,13 +35,6 @@ MAX_FRICTION = 10.0
 #: base held still.
 MIN_DAMPING_RATIO = 1e-4
 MAX_DAMPING_RATIO = 1e4
-
-
-def _real(value: object) -> float | None:
-    """``value`` as a float if it is a real number (not a bool), else None."""
-    if isinstance(value, bool) or not isinstance(value, Real):
-        return None
-    return float(value)
 
 
 #: Bounds of the solver's tolerances (dimensionless or D): outside them the integrator is
@@ -87,13 +79,13 @@ class SolverSettings:
     def __post_init__(self) -> None:
         lo, hi = _TOLERANCE_RANGE
         for name in ("rtol", "atol", "event_tol", "touch_tol", "seat_tol"):
-            value = _real(getattr(self, name))
+            value = real_number(getattr(self, name))
             if value is None or not lo <= value <= hi:
                 raise XfaceValueError(
                     f"settings.{name} must be in [{lo:g}, {hi:g}], got {getattr(self, name)!r}"
                 )
         for name in ("max_step", "first_step", "jam_speed"):
-            value = _real(getattr(self, name))
+            value = real_number(getattr(self, name))
             if value is None or not 0.0 < value < math.inf:
                 raise XfaceValueError(
                     f"settings.{name} must be finite and > 0, got {getattr(self, name)!r}"
@@ -147,7 +139,10 @@ class Physics:
     """Numerical settings of the integrator."""
 
     def __post_init__(self) -> None:
-        d, mu = _real(cast(object, self.damping_ratio)), _real(cast(object, self.friction))
+        d, mu = (
+            real_number(cast(object, self.damping_ratio)),
+            real_number(cast(object, self.friction)),
+        )
         if d is None or not (MIN_DAMPING_RATIO <= d <= MAX_DAMPING_RATIO or d == math.inf):
             raise XfaceValueError(
                 f"damping_ratio must be in [{MIN_DAMPING_RATIO:g}, {MAX_DAMPING_RATIO:g}] or inf "

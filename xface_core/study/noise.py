@@ -26,7 +26,7 @@ from typing import NamedTuple, cast
 import numpy as np
 
 from xface_core.codes import Outcome
-from xface_core.errors import XfaceValueError, is_integer_in
+from xface_core.errors import XfaceValueError, is_integer_in, is_positive_up_to
 from xface_core.geometry import FaceDesign
 from xface_core.maps.grids import ThetaGridKind, theta_grid, x0_grid
 from xface_core.physics import Physics
@@ -69,7 +69,7 @@ class PoseNoise:
             ("sigma_theta", MAX_SIGMA_THETA, "rad"),
         ):
             value = getattr(self, name)
-            if isinstance(value, bool) or not (isinstance(value, int | float) and 0 < value <= top):
+            if not is_positive_up_to(value, top):
                 raise XfaceValueError(f"{name} must be in (0, {top:.4g}] {unit}, got {value!r}")
         samples, seed = cast(object, self.samples), cast(object, self.seed)
         if not is_integer_in(samples, 2, MAX_NOISE_SAMPLES):

@@ -61,7 +61,7 @@ from typing import Any, NamedTuple
 import numpy as np
 import numpy.typing as npt
 
-from xface_core.errors import XfaceValueError, is_integer_in
+from xface_core.errors import XfaceValueError, is_integer_in, is_positive_up_to
 from xface_core.geometry import FaceDesign, custom_face, x_face
 from xface_core.maps.grids import ThetaGridKind
 from xface_core.physics import DEFAULT_SETTINGS, Physics, SolverSettings
@@ -154,12 +154,12 @@ class ProfileFamily:
             raise XfaceValueError(f"layers must be 1 or 2, got {self.layers!r}")
         spans = self.vertices + 1
         top = 0.5 / spans
-        if not _number_in(self.min_feature, 0.0, top) or self.min_feature == top:
+        if not is_positive_up_to(self.min_feature, top) or self.min_feature == top:
             raise XfaceValueError(
                 f"min_feature must be in (0, {top:.4g}) D with {self.vertices} vertices "
                 f"({spans} edges share the half width D/2), got {self.min_feature!r}"
             )
-        if not _number_in(self.max_wall_deg, 0.0, MAX_WALL_DEG):
+        if not is_positive_up_to(self.max_wall_deg, MAX_WALL_DEG):
             raise XfaceValueError(
                 f"max_wall_deg must be in (0, {MAX_WALL_DEG:g}], got {self.max_wall_deg!r}"
             )
@@ -237,13 +237,6 @@ class ProfileFamily:
     def as_dict(self) -> dict[str, float | int]:
         """The family's settings (in the search's summary)."""
         return asdict(self)
-
-
-def _number_in(value: object, lo: float, hi: float) -> bool:
-    """True for a real number (not a bool) with ``lo < value <= hi``."""
-    if isinstance(value, bool) or not isinstance(value, int | float):
-        return False
-    return lo < value <= hi
 
 
 def _merged(profile: FloatArray) -> FloatArray:
@@ -563,7 +556,7 @@ def _check_search(
         )
     if popsize is not None and not is_integer_in(popsize, 2, 10_000):
         raise XfaceValueError(f"popsize must be an integer in [2, 10000], got {popsize!r}")
-    if not _number_in(sigma0, 0.0, 1.0):
+    if not is_positive_up_to(sigma0, 1.0):
         raise XfaceValueError(f"sigma0 must be in (0, 1] (units of the unit box), got {sigma0!r}")
     if not is_integer_in(seed, 0, 2**32 - 1):
         raise XfaceValueError(f"seed must be an integer in [0, 2**32 - 1], got {seed!r}")
