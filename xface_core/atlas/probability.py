@@ -38,7 +38,7 @@ import numpy as np
 import numpy.typing as npt
 
 from xface_core.codes import Outcome
-from xface_core.errors import InputError, XfaceValueError, is_integer_in
+from xface_core.errors import InputError, XfaceValueError, is_integer_in, is_positive_up_to
 from xface_core.geometry import FaceDesign
 from xface_core.physics import Physics
 from xface_core.runner import outcomes_at
@@ -333,8 +333,7 @@ def seat_probability(
     phys = Physics() if physics is None else physics
     if rays is not None and not is_integer_in(rays, 4, 4096):
         raise XfaceValueError(f"rays must be None or an integer in [4, 4096], got {rays!r}")
-    tol: object = ray_tol
-    if isinstance(tol, bool) or not isinstance(tol, (int, float)) or not 0.0 < tol <= 1.0:
+    if not is_positive_up_to(ray_tol, 1.0):
         raise XfaceValueError(f"ray_tol must be a number in (0, 1], got {ray_tol!r}")
     if boundary not in BOUNDARIES:
         raise XfaceValueError(f"boundary must be one of {BOUNDARIES}, got {boundary!r}")

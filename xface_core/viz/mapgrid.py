@@ -14,13 +14,13 @@ matplotlib) and the rerun recordings (:mod:`xface_core.viz.recording`) both star
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any, NamedTuple, Protocol
+from typing import Any, NamedTuple, Protocol, cast
 
 import numpy as np
 import numpy.typing as npt
 
 from xface_core.codes import Outcome
-from xface_core.errors import XfaceValueError
+from xface_core.errors import XfaceValueError, is_integer_in
 from xface_core.geometry import FaceDesign
 from xface_core.viz import palette
 
@@ -256,9 +256,9 @@ def _half_open(index_range: object) -> tuple[int, int]:
 
 def check_scale(scale: object) -> int:
     """``scale`` (pixels per cell side) as an int in 1..64, or an XfaceValueError."""
-    if isinstance(scale, bool) or not isinstance(scale, int | np.integer) or not 1 <= scale <= 64:
+    if not is_integer_in(scale, 1, 64):
         raise XfaceValueError(f"scale must be an integer in 1..64 (pixels per cell), got {scale!r}")
-    return int(scale)
+    return int(cast(int, scale))
 
 
 def map_to_rgb(amap: AcceptanceMapLike, *, scale: int = 8) -> npt.NDArray[np.uint8]:

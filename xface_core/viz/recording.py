@@ -81,7 +81,7 @@ import rerun.blueprint as rrb
 import shapely
 
 from xface_core.codes import Outcome
-from xface_core.errors import XfaceValueError
+from xface_core.errors import XfaceValueError, is_integer_in
 from xface_core.geometry import FaceDesign
 from xface_core.result import Phase, Prediction
 
@@ -611,9 +611,7 @@ def log_verdict(
 
 
 def _check_stamp(ros_stamp_ns: object) -> None:
-    if ros_stamp_ns is not None and (
-        isinstance(ros_stamp_ns, bool) or not isinstance(ros_stamp_ns, int | np.integer)
-    ):
+    if ros_stamp_ns is not None and not is_integer_in(ros_stamp_ns, -(2**63), 2**63 - 1):
         raise XfaceValueError(f"ros_stamp_ns must be an integer (ns), got {ros_stamp_ns!r}")
 
 
