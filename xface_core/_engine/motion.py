@@ -468,6 +468,19 @@ def cut_ahead(
 
 
 @njit_no_refcount
+def _tie_goes_to_trial(best_cut: float, trial_cut: float, best: float, cost: float) -> bool:
+    """Of two alternatives with the same rate (dissipations ``best`` and ``cost`` within
+    TIE_COST), does the trial one win? ``best_cut``, ``trial_cut``: how deep a short move
+    along each cuts into a pair (:func:`cut_ahead`, D). While the best is sound ahead, only
+    a trial also sound and of smaller dissipation wins (as two ways of pinning one corner
+    meeting, settled as before ties were looked at); else the trial must cut in clearly
+    less."""
+    if best_cut <= LOOKAHEAD_CUT:
+        return trial_cut <= LOOKAHEAD_CUT and cost < best
+    return trial_cut < best_cut - LOOKAHEAD_CUT
+
+
+@njit_no_refcount
 def choose_motion(
     table: FloatArray,
     ev: FloatArray,
@@ -557,15 +570,8 @@ def choose_motion(
                     if best_cut < 0.0:
                         best_cut = cut_ahead(table, cand, nc, act, best_n, pb, pm, x0, ym,
                                              best_vb, best_vm, sqb, sqm)  # fmt: skip
-                    # Both sound a short move ahead (as two ways of pinning one corner
-                    # meeting): the smaller dissipation, as before ties were settled.
-                    if best_cut <= LOOKAHEAD_CUT and cost >= best:
-                        continue
                     cut = cut_ahead(table, cand, nc, trial, na, pb, pm, x0, ym, tb, tm, sqb, sqm)
-                    if best_cut <= LOOKAHEAD_CUT:
-                        if cut > LOOKAHEAD_CUT:
-                            continue
-                    elif cut >= best_cut - LOOKAHEAD_CUT:
+                    if not _tie_goes_to_trial(best_cut, cut, best, cost):
                         continue
                     best_cut = cut
                 else:

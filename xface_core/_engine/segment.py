@@ -267,14 +267,14 @@ def advance_to_event(
             # With friction a sliding contact's force can change sign at a fold of its path,
             # which the step to it cannot cross (the rate blows up on the way): this slip
             # state cannot carry the parts on, but the parts may move on without the contact
-            # (its force gone, the descent along its edge). Choose again from the last good
-            # state with the contact released, as after any release; a fold the choice
+            # (its force gone, the descent along its edge). The release stands at the last
+            # good state, to choose again there as after any release; a fold the choice
             # cannot leave ends there (a jam, or the turning point of the next segment).
             # X 2.12/0.072, damping ratio 1.3e-3, mu 0.42 at x0 = D, theta0 = -pi/6 ended
             # here as a turning point (BAD_MATE) where its mirror run, reaching the same fold
             # 3e-9 D apart by a slip event, chose again and seated, as the independent engine
             # does from both.
-            pass
+            return kind
         else:
             # The step to the event crosses a fold of the path (the rate blows up on the
             # way): stop at the last good state as at a turning point.

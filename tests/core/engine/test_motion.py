@@ -15,6 +15,8 @@ from hypothesis import strategies as st
 
 import xface_core as xf
 from xface_core._engine.motion import (
+    LOOKAHEAD_CUT,
+    _tie_goes_to_trial,
     choose_motion,
     friction_modes,
     solve_qp,
@@ -405,3 +407,21 @@ def test_a_vertex_just_beyond_the_edge_end_is_no_corner(incline) -> None:
     assert ev[1, 1] == pytest.approx(1.001, abs=1e-12)
     (_, _, qb, qm), _ = _qp(ev[:1], sqb=0.0)
     assert (status, n, act[0], vb, vm) == (0, 1, 0, qb, qm)
+
+
+# ---- ties of the motion choice ---------------------------------------------------------------
+
+
+@pytest.mark.parametrize(("trial_cut", "cost", "wins"), [(0.0, 0.9, True), (0.0, 1.0, False),
+                                                          (1e-6, 0.9, False)])  # fmt: skip
+def test_against_a_sound_best_only_a_sound_trial_of_less_dissipation_wins_a_tie(
+    trial_cut: float, cost: float, wins: bool
+) -> None:
+    assert _tie_goes_to_trial(0.0, trial_cut, 1.0, cost) is wins
+
+
+@pytest.mark.parametrize(("trial_cut", "wins"), [(1e-7, True), (1e-6 - 0.5 * LOOKAHEAD_CUT, False)])
+def test_against_a_best_that_cuts_in_a_trial_must_cut_in_clearly_less(
+    trial_cut: float, wins: bool
+) -> None:
+    assert _tie_goes_to_trial(1e-6, trial_cut, 1.0, 2.0) is wins
