@@ -89,3 +89,21 @@ def test_a_poses_file_without_theta0_is_refused_with_what_it_lacks(tmp_path: Pat
     np.savez(path, x0=np.array([0.1]))
     with pytest.raises(SystemExit, match="no array theta0"):
         profile.poses_from(path, 1.0)
+
+
+NM_SAMPLE = """\
+0000000000000490 000000000000001c r .const.<numba.core.cpu.CPUContext>
+0000000000001000 0000000000001cc2 W _ZN10xface_core7_engine4scan11_gap_boundsB4v219
+0000000000003000 0000000000004e2e W _ZN10xface_core7_engine4scan15_contact_eventsB4v164
+0000000000009000 000000000000256c T _ZN10xface_core7_engine8simulate13simulate_manyB3v10
+                 U sincos
+"""
+
+
+def test_function_sizes_are_read_from_nm_for_text_and_weak_symbols_only() -> None:
+    sizes = profile.function_sizes(NM_SAMPLE)
+    assert sizes == {
+        "_ZN10xface_core7_engine4scan11_gap_boundsB4v219": 0x1CC2,
+        "_ZN10xface_core7_engine4scan15_contact_eventsB4v164": 0x4E2E,
+        "_ZN10xface_core7_engine8simulate13simulate_manyB3v10": 0x256C,
+    }
