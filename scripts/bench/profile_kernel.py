@@ -44,8 +44,8 @@ def write_perf_map(entry: object, package: object, path: Path) -> int:
     Where ``entry`` was compiled in this process, its object code gives every function
     linked into it with its true size (``nm -S``: the functions LLVM did not inline, numba's
     weak copies of the callees). Loaded from a cache it has none: then each function runs to
-    the next one's address, which can credit a function with code that is not its own (an
-    X 1/1 map gave ``scan._gap_bounds`` 27 % that way, 4 % with the sizes).
+    the next one's address, which can credit a function with code that is not its own, and
+    other libraries' copies of a function (not the code the entry runs) are listed too.
     """
     from numba.core.registry import CPUDispatcher
 
