@@ -91,7 +91,7 @@ def keep_trial_dense(seg: Segment, step: Step) -> None:
         d[1, 4] = 0.0
 
 
-@njit_no_refcount
+@njit_inline
 def has_dense(seg: Segment, step: Step) -> bool:
     """Does the kept dense output cover ``step`` (the trial step, or a head of it)?"""
     d = seg.dense
@@ -104,7 +104,7 @@ def has_dense(seg: Segment, step: Step) -> bool:
     )
 
 
-@njit_no_refcount
+@njit_inline
 def angles_at(seg: Segment, step: Step, t: float) -> tuple[float, float]:
     """(phi_B, phi_M) a descent ``t`` (D) into ``step``: on the trial step's dense output
     when it covers the step (a few multiplications; as accurate as the step itself), else
@@ -116,7 +116,7 @@ def angles_at(seg: Segment, step: Step, t: float) -> tuple[float, float]:
     return nb, nm
 
 
-@njit_no_refcount
+@njit_inline
 def step_to(seg: Segment, step: Step, t: float) -> tuple[float, float, float, float, bool]:
     """One step of length ``t`` from the trial step's start (:func:`solve_or_integrate`):
     ``(phi_b, phi_m, err_b, err_m, ok)``.
@@ -129,9 +129,16 @@ def step_to(seg: Segment, step: Step, t: float) -> tuple[float, float, float, fl
     phi_M, y_M, then the result) and returned bit for bit. The rate at
     the start, the first stage of every step from it, is computed once per start
     (:func:`start_velocity`).
+
+    Inlined into every caller (numba's ``inline="always"``), and so are the other memo
+    look-ups here (:func:`quarter_state`, :func:`start_velocity`, :func:`end_velocity`,
+    :func:`angles_at`): a kernel call passes every field of its arguments by value, and a
+    :class:`Segment` is about fifty machine words; copied for every look-up that found its
+    answer in the memo, that was most of a gap bound's time. Only a miss calls
+    (:func:`_step_to_new`). Maps took 0.64-0.74 and predictions 0.54-0.77 of their time
+    (docs/notes/2026-11-29-side-by-side-memo-look-ups-inlined.md).
     """
     memo = seg.step_memo
-    slots = memo.shape[0] - 1
     for k in range(1, int(memo[0, 0]) + 1):
         if (
             memo[k, 0] == t
@@ -140,6 +147,14 @@ def step_to(seg: Segment, step: Step, t: float) -> tuple[float, float, float, fl
             and memo[k, 3] == step.y_m
         ):
             return memo[k, 4], memo[k, 5], memo[k, 6], memo[k, 7], memo[k, 8] != 0.0
+    return _step_to_new(seg, step, t)
+
+
+@njit_no_refcount
+def _step_to_new(seg: Segment, step: Step, t: float) -> tuple[float, float, float, float, bool]:
+    """:func:`step_to` for a step not remembered: integrated (or solved) and remembered."""
+    memo = seg.step_memo
+    slots = memo.shape[0] - 1
     k1b, k1m, _, _ = start_velocity(seg, step)
     nb, nm, eb, em, ok = solve_or_integrate(seg, step, t, k1b, k1m)
     k = int(memo[0, 1]) + 1
@@ -180,7 +195,7 @@ QUARTER_WIDTH = 10
 QUARTER_SLOTS = 3
 
 
-@njit_no_refcount
+@njit_inline
 def _remembers(memo: FloatArray, col: int, flag: int, pb: float, pm: float, ym: float) -> bool:
     """Does row 0 of the step memo hold the state ``(pb, pm, ym)`` at ``col`` (set, by the
     value at ``flag``)?"""
@@ -192,7 +207,7 @@ def _remembers(memo: FloatArray, col: int, flag: int, pb: float, pm: float, ym: 
     )
 
 
-@njit_no_refcount
+@njit_inline
 def quarter_state(
     seg: Segment, k: int, pb: float, pm: float, ym: float
 ) -> tuple[float, float, float, float, float, float]:
@@ -203,12 +218,7 @@ def quarter_state(
     memo = seg.step_memo
     col = QUARTER_STATE + QUARTER_WIDTH * (k - 1)
     if not _remembers(memo, col, col + 9, pb, pm, ym):
-        vb, vm, _, _ = velocity(seg.held, pb, pm, ym)
-        memo[0, col], memo[0, col + 1], memo[0, col + 2] = pb, pm, ym
-        memo[0, col + 3], memo[0, col + 4] = vb, vm
-        memo[0, col + 5], memo[0, col + 6] = math.cos(pb), math.sin(pb)
-        memo[0, col + 7], memo[0, col + 8] = math.cos(pm), math.sin(pm)
-        memo[0, col + 9] = 1.0
+        _remember_quarter(seg, col, pb, pm, ym)
     return (
         memo[0, col + 5], memo[0, col + 6], memo[0, col + 7], memo[0, col + 8],
         memo[0, col + 3], memo[0, col + 4],
@@ -216,6 +226,18 @@ def quarter_state(
 
 
 @njit_no_refcount
+def _remember_quarter(seg: Segment, col: int, pb: float, pm: float, ym: float) -> None:
+    """Compute and remember a quarter state (:func:`quarter_state`) at ``col``."""
+    memo = seg.step_memo
+    vb, vm, _, _ = velocity(seg.held, pb, pm, ym)
+    memo[0, col], memo[0, col + 1], memo[0, col + 2] = pb, pm, ym
+    memo[0, col + 3], memo[0, col + 4] = vb, vm
+    memo[0, col + 5], memo[0, col + 6] = math.cos(pb), math.sin(pb)
+    memo[0, col + 7], memo[0, col + 8] = math.cos(pm), math.sin(pm)
+    memo[0, col + 9] = 1.0
+
+
+@njit_inline
 def _remembered_velocity(
     seg: Segment, col: int, pb: float, pm: float, ym: float
 ) -> tuple[float, float, float, float]:
@@ -223,14 +245,21 @@ def _remembered_velocity(
     for the last state asked there."""
     memo = seg.step_memo
     if not _remembers(memo, col, col + 7, pb, pm, ym):
-        vb, vm, l1, l2 = velocity(seg.held, pb, pm, ym)
-        memo[0, col], memo[0, col + 1], memo[0, col + 2] = pb, pm, ym
-        memo[0, col + 3], memo[0, col + 4], memo[0, col + 5], memo[0, col + 6] = vb, vm, l1, l2
-        memo[0, col + 7] = 1.0
+        _remember_velocity(seg, col, pb, pm, ym)
     return memo[0, col + 3], memo[0, col + 4], memo[0, col + 5], memo[0, col + 6]
 
 
 @njit_no_refcount
+def _remember_velocity(seg: Segment, col: int, pb: float, pm: float, ym: float) -> None:
+    """Compute and remember the rate at a state (:func:`_remembered_velocity`) at ``col``."""
+    memo = seg.step_memo
+    vb, vm, l1, l2 = velocity(seg.held, pb, pm, ym)
+    memo[0, col], memo[0, col + 1], memo[0, col + 2] = pb, pm, ym
+    memo[0, col + 3], memo[0, col + 4], memo[0, col + 5], memo[0, col + 6] = vb, vm, l1, l2
+    memo[0, col + 7] = 1.0
+
+
+@njit_inline
 def start_velocity(seg: Segment, step: Step) -> tuple[float, float, float, float]:
     """:func:`~.motion.velocity` at the step's start, computed once per start: every step
     from it begins with it, and the event searches and screens of the step ask for it
@@ -238,7 +267,7 @@ def start_velocity(seg: Segment, step: Step) -> tuple[float, float, float, float
     return _remembered_velocity(seg, START_RATE, step.phi_b, step.phi_m, step.y_m)
 
 
-@njit_no_refcount
+@njit_inline
 def end_velocity(
     seg: Segment, pb: float, pm: float, ym: float
 ) -> tuple[float, float, float, float]:
