@@ -11,10 +11,13 @@ default ``--after``) is the working tree's package. Each version runs in a proce
 second paid about 150 us per kernel call in numba's dispatch (both versions' records are
 tuples of the same element types, so they share one type fingerprint and the second version's
 calls miss numba's fast path), which made a version look slower than itself. Numba caches by
-file path, so each copy compiles its own kernels; both are warmed up first. Each repeat runs
-every workload before, then after, so drift on a shared machine hits both alike; the table has
-per-call medians over the repeats, their ratio, the range of the per-repeat ratios and of the
-repeats. Exit 1 if the versions' outcomes differ on any workload, 2 if one cannot be loaded.
+file path, so each copy compiles its own kernels; both are warmed up first. Each repeat starts
+a fresh process per side (loading from numba's cache) and runs every workload before, then
+after, so drift on a shared machine hits both alike, and where a process's code and stack
+happen to land (worth 0.8-1.0 of a map's time between processes) is sampled, not fixed for the
+whole run; the table has per-call medians over the repeats, their ratio, the range of the
+per-repeat ratios and of the repeats. Exit 1 if the versions' outcomes differ on any workload,
+2 if one cannot be loaded.
 """
 
 from __future__ import annotations
@@ -261,14 +264,18 @@ class Side:
         self.proc.wait()
 
 
-def start_sides(args: argparse.Namespace, tmp: Path) -> tuple[list[Side], list[str]]:
+def start_sides(
+    args: argparse.Namespace, tmp: Path, *, extract: bool = True
+) -> tuple[list[Side], list[str]]:
+    """A serving process per side; ``extract``: extract the revisions first (else they are
+    in ``tmp`` already)."""
     sides, notes = [], []
     for role, rev in (("before", args.before), ("after", args.after)):
         if rev == WORKTREE:
             sides.append(Side(PACKAGE, ROOT))
             continue
         name = f"{PACKAGE}_{role}"
-        rewrites = extract_revision(rev, tmp, name)
+        rewrites = extract_revision(rev, tmp, name) if extract else 0
         sides.append(Side(name, tmp))
         if rewrites:
             notes.append(f"{role}: rewrote {rewrites} absolute `{PACKAGE}` references to {name}")
@@ -302,13 +309,29 @@ def compare(sides: Sequence[Side], loads: Sequence[Workload], seated_code: int
     return lines, same
 
 
-def measure(sides: Sequence[Side], loads: Sequence[Workload], repeats: int) -> None:
-    """Per-call seconds of every workload, ``repeats`` times, sides interleaved."""
-    for _ in range(repeats):
-        for k, w in enumerate(loads):
-            for side in (0, 1):
-                seconds = sides[side].ask("time", index=k, calls=w.calls)["seconds"]
-                w.times[side].append(seconds)
+def measure(
+    args: argparse.Namespace, tmp: Path, setup: dict[str, Any], loads: Sequence[Workload]
+) -> None:
+    """Per-call seconds of every workload, ``args.repeats`` times, sides interleaved, each
+    repeat in a fresh pair of processes (numba's cache makes their start a second or two).
+
+    One process per side for the whole run measured where that process's code and stack
+    happened to land as much as the code: the same kernel timed 55.8-71.2 ms a map in four
+    processes, and two versions that differ by 0.82 gave 0.70 in one pair of processes
+    (docs/notes/2026-11-29-side-by-side-memo-look-ups-inlined.md)."""
+    for _ in range(args.repeats):
+        sides, _ = start_sides(args, tmp, extract=False)
+        try:
+            for side in sides:
+                side.ask("hello")
+                side.ask("setup", **setup)
+            for k, w in enumerate(loads):
+                for side in (0, 1):
+                    seconds = sides[side].ask("time", index=k, calls=w.calls)["seconds"]
+                    w.times[side].append(seconds)
+        finally:
+            for side in sides:
+                side.close()
 
 
 def table(workloads: Sequence[Workload]) -> list[str]:
@@ -347,10 +370,11 @@ def report(args: argparse.Namespace, argv: Sequence[str], info: dict[str, Any]) 
         "# Side-by-side timing: before vs after",
         "",
         *([f"> {args.note}", ""] if args.note else []),
-        f"- before: `{info['described'][0]}` (imported as `{names[0]}`, own process)",
-        f"- after: `{info['described'][1]}` (imported as `{names[1]}`, own process)",
+        f"- before: `{info['described'][0]}` (imported as `{names[0]}`, own processes)",
+        f"- after: `{info['described'][1]}` (imported as `{names[1]}`, own processes)",
         (
-            f"- {args.repeats} repeats per side, interleaved; per-call medians; "
+            f"- {args.repeats} repeats per side, interleaved, each in a fresh process; "
+            f"per-call medians; "
             f"{'quick' if args.quick else 'full'} workloads; threads: {info['threads']}; "
             f"warm-up (compile or cache load) {warm[0]:.1f} s before, {warm[1]:.1f} s after"
         ),
@@ -392,10 +416,10 @@ def run_both(args: argparse.Namespace, tmp: Path) -> tuple[dict[str, Any], bool]
         loads = workloads(QUICK if args.quick else FULL)
         checks, same = compare(sides, loads, int(hellos[0]["seated"]))
         print("\n".join(checks), file=sys.stderr, flush=True)
-        measure(sides, loads, args.repeats)
     finally:
         for side in sides:
             side.close()
+    measure(args, tmp, setup, loads)
     threads = ", ".join(f"{f} {'threads=1' if kw else 'default'}" for f, kw in kws.items())
     body = [*table(loads), "", *(f"- {line}" for line in [*checks, *notes])]
     info = {"names": [side.name for side in sides], "warmup_s": warmup_s, "threads": threads,

@@ -135,7 +135,7 @@ def step_to(seg: Segment, step: Step, t: float) -> tuple[float, float, float, fl
     :func:`angles_at`): a kernel call passes every field of its arguments by value, and a
     :class:`Segment` is about fifty machine words; copied for every look-up that found its
     answer in the memo, that was most of a gap bound's time. Only a miss calls
-    (:func:`_step_to_new`). Maps took 0.64-0.74 and predictions 0.54-0.77 of their time
+    (:func:`_step_to_new`). Maps took 0.86-0.95 and predictions 0.85-0.98 of their time
     (docs/notes/2026-11-29-side-by-side-memo-look-ups-inlined.md).
     """
     memo = seg.step_memo

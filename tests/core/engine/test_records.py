@@ -169,7 +169,7 @@ INLINED = {
     "scan._crossing", "segment._segment",
 } | {
     # The step memo's look-ups: a call passes a Segment (about fifty words) by value, which
-    # cost more than a look-up that finds its answer (maps 0.64-0.74 of their time, bit
+    # cost more than a look-up that finds its answer (maps 0.86-0.95 of their time, bit
     # for bit, docs/notes/2026-11-29-side-by-side-memo-look-ups-inlined.md).
     "events._remembers", "events._remembered_velocity", "events.angles_at",
     "events.end_velocity", "events.has_dense", "events.quarter_state",
