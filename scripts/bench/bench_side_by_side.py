@@ -323,7 +323,6 @@ def measure(
         sides, _ = start_sides(args, tmp, extract=False)
         try:
             for side in sides:
-                side.ask("hello")
                 side.ask("setup", **setup)
             for k, w in enumerate(loads):
                 for side in (0, 1):
