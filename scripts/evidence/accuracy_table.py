@@ -13,10 +13,17 @@ engine's answer is unambiguous, the ambiguous count, false SEATED and false fail
 then every disagreement with both final states.
 
 The engine's runs depend only on the polygons, the physics and the engine's settings, not on
-xface: they are stored in ``--cache`` (default ``.crosscheck-cache/``, keyed by all of those
-and by the scene's source) so that a rerun after a change to xface only reruns xface.
-``--no-cache`` reruns the engine too. The engine takes from under a minute to several
-minutes per design on two cores.
+xface: they are kept in ``--store`` (default ``scripts/evidence/engine_maps/``, committed: one
+``.npz`` of plain arrays per design, :mod:`xface_core.crosscheck.store`, named by the design
+and a key hashing all of those and the scene's source), with the extra runs of the knife-edge
+checks, so that a rerun after a change to xface only reruns xface (about a minute for the
+whole table). A design without a file runs the engine and writes one; ``--no-store`` reruns
+the engine and writes nothing. The engine takes from a minute to hours per design on two
+cores. A change to the scene's code or settings changes every key: the stored runs then no
+longer apply, and the table runs the engine again.
+
+With ``--out`` an existing file keeps everything after the line :data:`KEEP_MARKER` (the
+hand-written discussion of the disagreements); only the text above it is generated.
 
 The bar (``--check``): on every design at least 99.5 % agreement on the unambiguous cells
 and no false SEATED.
@@ -28,23 +35,28 @@ import argparse
 import hashlib
 import json
 import math
-import pickle
 import sys
 import time
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 from golden_maps import lopsided_face, trapezoid_face
 
 import xface_core as xf
 from xface_core.crosscheck import compare as cc
-from xface_core.crosscheck import scene
+from xface_core.crosscheck import scene, store
 
 #: Custom faces by name (the golden outputs' two: scripts/evidence/golden_maps.py).
 CUSTOM = {"trapezoid": trapezoid_face, "lopsided": lopsided_face}
 
 #: Agreement (fraction of the unambiguous cells) every design must reach.
 AGREEMENT_BAR = 0.995
+#: Where the engine's runs are kept (committed evidence).
+STORE = Path(__file__).resolve().parent / "engine_maps"
+#: The line after which an existing ``--out`` file is kept as it is.
+KEEP_MARKER = (
+    "<!-- Generated above by scripts/evidence/accuracy_table.py; kept as written below. -->"
+)
 
 
 @dataclass(frozen=True)
@@ -113,18 +125,63 @@ def _cache_key(design: Design, grid: int) -> str:
     return hashlib.sha256("\n".join(parts).encode()).hexdigest()[:20]
 
 
-def engine_map(design: Design, grid: int, cache: Path | None, quiet: bool) -> cc.EngineMap:
-    path = None if cache is None else cache / f"{_cache_key(design, grid)}.pkl"
+def _slug(design: Design) -> str:
+    return "".join(c if c.isalnum() or c in ".-" else "-" for c in design.label.replace(", ", "_"))
+
+
+def store_path(store_dir: Path, design: Design, grid: int) -> Path:
+    """The design's file in ``store_dir`` for today's key: its label made a file name, and
+    the key."""
+    return store_dir / f"{_slug(design)}.{_cache_key(design, grid)}.npz"
+
+
+def stored_path(store_dir: Path, design: Design, grid: int) -> Path | None:
+    """The design's file in ``store_dir`` whatever its key (today's if there is one), or
+    None."""
+    today = store_path(store_dir, design, grid)
+    if today.exists():
+        return today
+    found = sorted(store_dir.glob(f"{_slug(design)}.*.npz"))
+    found = [p for p in found if p.name.count(".") == today.name.count(".")]
+    return found[0] if found else None
+
+
+def provenance() -> dict[str, str]:
+    """What the engine's runs were made with, in words (the key hashes the same)."""
+    return {
+        "pymunk": str(scene.pymunk.version),
+        "scene_sha256": hashlib.sha256(Path(scene.__file__).read_bytes()).hexdigest(),
+    }
+
+
+def engine_map(
+    design: Design, grid: int, store_dir: Path | None, quiet: bool, rerun_stale: bool = False
+) -> tuple[store.StoredEvidence, Path | None]:
+    """The design's converged engine map and its file: from ``store_dir`` when a file is
+    there (made with other engine code or settings than today's, it is used as it is, with
+    a warning, unless ``rerun_stale``), else run (minutes to hours) and, with a
+    ``store_dir``, written there."""
+    key = _cache_key(design, grid)
+    path = None if store_dir is None else stored_path(store_dir, design, grid)
     if path is not None and path.exists():
-        with path.open("rb") as f:
-            stored = pickle.load(f)
-        assert isinstance(stored, cc.EngineMap)
-        if stored.stall_changes is not None:
-            return stored
+        stored = store.load(path)
+        if stored.key != key:
+            if rerun_stale:
+                path = None
+            else:
+                print(
+                    f"{design.label}: {path.name} was made with other engine code or settings "
+                    f"({stored.provenance}); used as stored (--rerun-stale runs it again)",
+                    file=sys.stderr,
+                )
+    if path is not None and path.exists():
+        if stored.engine.stall_changes is not None:
+            return stored, path
         # Stored before the stall confirmation existed: add it (only the jammed cells run).
-        result = cc.confirm_stalls(design.build(), stored, design.physics())
-        _store(path, result)
-        return result
+        confirmed = cc.confirm_stalls(design.build(), stored.engine, design.physics())
+        stored = replace(stored, engine=confirmed)
+        store.save(path, stored)
+        return stored, path
     result = cc.engine_map(
         design.build(),
         design.physics(),
@@ -132,17 +189,27 @@ def engine_map(design: Design, grid: int, cache: Path | None, quiet: bool) -> cc
         converged=True,
         progress=None if quiet else cc.stderr_progress,
     )
+    evidence = store.StoredEvidence(key, design.label, result, provenance=provenance())
+    path = None if store_dir is None else store_path(store_dir, design, grid)
     if path is not None:
-        _store(path, result)
-    return result
+        store.save(path, evidence)
+    return evidence, path
 
 
-def _store(path: Path, result: cc.EngineMap) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(".tmp")
-    with tmp.open("wb") as f:
-        pickle.dump(result, f)
-    tmp.replace(path)
+def compare(
+    design: Design, evidence: store.StoredEvidence, path: Path | None
+) -> cc.CrosscheckResult:
+    """xface against the stored map, knife edges dropped; the knife-edge runs not yet kept
+    are run and (with a ``path``) added to the design's file."""
+    r = cc.compare_with_engine(design.build(), evidence.engine, design.physics())
+    missing = [c for c in cc.knife_edge_cells(r) if c not in evidence.probes]
+    probes = dict(evidence.probes)
+    if missing:
+        tasks = [(x0, theta0, r.settings) for x0, theta0 in missing]
+        probes.update(zip(missing, cc.run_engine(r.design, r.physics, tasks), strict=True))
+        if path is not None:
+            store.save(path, replace(evidence, probes=probes))
+    return cc.drop_knife_edges(r, known=probes)
 
 
 def _pct(x: float) -> str:
@@ -207,7 +274,17 @@ def markdown(rows: list[tuple[Design, cc.CrosscheckResult]], grid: int, command:
     dis = [line for d, r in rows for line in _disagreement_lines(d, r)]
     lines += ["", "## Disagreements", "", "Final states: (phi_B, phi_M in rad, y_M in D).", ""]
     lines += dis if dis else ["None."]
+    lines += ["", KEEP_MARKER]
     return "\n".join(lines) + "\n"
+
+
+def kept_text(path: Path) -> str:
+    """What follows :data:`KEEP_MARKER` in ``path`` (nothing if the file or the line is
+    missing)."""
+    if not path.exists():
+        return ""
+    _, marker, after = path.read_text().partition(KEEP_MARKER + "\n")
+    return after if marker else ""
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -216,10 +293,17 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--only", nargs="*", default=None, help='designs as "V 0.0625 1 [mu]" or "trapezoid [mu]"'
     )
-    ap.add_argument("--cache", type=Path, default=Path(".crosscheck-cache"))
-    ap.add_argument("--no-cache", action="store_true")
     ap.add_argument(
-        "--cached-only", action="store_true", help="skip designs whose engine runs are not stored"
+        "--store", type=Path, default=STORE, help="where the engine's runs are kept (.npz)"
+    )
+    ap.add_argument("--no-store", action="store_true", help="run the engine, keep nothing")
+    ap.add_argument(
+        "--stored-only", action="store_true", help="skip designs whose engine runs are not kept"
+    )
+    ap.add_argument(
+        "--rerun-stale",
+        action="store_true",
+        help="run the engine again where the kept runs were made with other engine code",
     )
     ap.add_argument("--out", type=Path, default=None, help="markdown file (default: stdout)")
     ap.add_argument("--json", type=Path, default=None, help="per-design summary as JSON")
@@ -239,10 +323,11 @@ def main(argv: list[str] | None = None) -> int:
     rows = []
     for d in designs:
         t0 = time.monotonic()
-        if args.cached_only and not (args.cache / f"{_cache_key(d, args.grid)}.pkl").exists():
+        store_dir = None if args.no_store else args.store
+        if args.stored_only and (store_dir is None or stored_path(store_dir, d, args.grid) is None):
             continue
-        em = engine_map(d, args.grid, None if args.no_cache else args.cache, args.quiet)
-        r = cc.drop_knife_edges(cc.compare_with_engine(d.build(), em, d.physics()))
+        evidence, path = engine_map(d, args.grid, store_dir, args.quiet, args.rerun_stale)
+        r = compare(d, evidence, path)
         rows.append((d, r))
         if not args.quiet:
             print(
@@ -259,7 +344,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.out is None:
         print(text, end="")
     else:
-        args.out.write_text(text)
+        args.out.write_text(text + kept_text(args.out))
     if args.json is not None:
         args.json.write_text(
             json.dumps(

@@ -26,7 +26,7 @@ import multiprocessing
 import os
 import sys
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field, replace
 
@@ -539,12 +539,27 @@ def compare_with_engine(
     )
 
 
+def knife_edge_cells(result: CrosscheckResult) -> list[tuple[float, float]]:
+    """The starts (x0 in D, theta0 in rad) :func:`drop_knife_edges` runs the sharp engine
+    from, at ``result.settings``: ``rounding`` either side of every disagreeing cell's x0,
+    two per disagreement in order (minus side first)."""
+    d = result.rounding
+    return [(dis.x0 + side * d, dis.theta0) for dis in result.disagreements for side in (-1.0, 1.0)]
+
+
 def drop_knife_edges(
-    result: CrosscheckResult, *, workers: int | None = None, progress: Progress | None = None
+    result: CrosscheckResult,
+    *,
+    workers: int | None = None,
+    progress: Progress | None = None,
+    known: Mapping[tuple[float, float], EngineRun] | None = None,
 ) -> CrosscheckResult:
     """The comparison with every disagreeing cell whose engine answer is a knife edge marked
     ambiguous: the sharp engine, started ``rounding`` (0.002 D) either side of the cell's x0,
     does not give the cell's seating on both sides.
+
+    ``known``: sharp runs at ``result.settings`` already made from some of those starts
+    (:func:`knife_edge_cells`, e.g. kept by :mod:`~.store`); only the others are run.
 
     Rounding the corners moves the boundary between two outcomes by about the rounding, so
     a cell exactly on it (a V tip landing exactly on a notch corner, V H/D 0.57435 r_p 1 at
@@ -555,13 +570,18 @@ def drop_knife_edges(
     """
     if not result.disagreements:
         return replace(result, knife_edges=0)
-    design, phys, d = result.design, result.physics, result.rounding
-    tasks = [
-        (dis.x0 + side * d, dis.theta0, result.settings)
-        for dis in result.disagreements
-        for side in (-1.0, 1.0)
-    ]
-    runs = run_engine(design, phys, tasks, workers=workers, progress=progress)
+    cells = knife_edge_cells(result)
+    have = {} if known is None else known
+    missing = [c for c in cells if c not in have]
+    tasks = [(x0, theta0, result.settings) for x0, theta0 in missing]
+    fresh = dict(
+        zip(
+            missing,
+            run_engine(result.design, result.physics, tasks, workers=workers, progress=progress),
+            strict=True,
+        )
+    )
+    runs = [have[c] if c in have else fresh[c] for c in cells]
     ambiguous = result.ambiguous.copy()
     kept = []
     for k, dis in enumerate(result.disagreements):

@@ -1,0 +1,89 @@
+"""scripts/evidence/accuracy_table.py on the engine runs kept in scripts/evidence/engine_maps/.
+
+The converged engine runs take hours; xface's side of the comparison takes seconds. So CI
+compares today's xface with the kept runs of every design: each must meet the bar, and
+docs/accuracy.md must be what the script writes today (a change to xface's answers shows up
+here, and the table is regenerated with the command in its first line).
+"""
+
+from __future__ import annotations
+
+import importlib
+import shutil
+import sys
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from xface_core.crosscheck import store
+
+ROOT = Path(__file__).resolve().parents[3]
+sys.path.insert(0, str(ROOT / "scripts" / "evidence"))
+table: Any = importlib.import_module("accuracy_table")
+DOC = ROOT / "docs" / "accuracy.md"
+
+
+@pytest.fixture(scope="module")
+def regenerated(tmp_path_factory: pytest.TempPathFactory) -> tuple[int, str]:
+    """The whole table from a copy of the kept runs (a knife-edge run the copy lacks would
+    be added to the copy, not to the repository): the exit code of ``--check`` and the text."""
+    tmp = tmp_path_factory.mktemp("accuracy")
+    kept = tmp / "engine_maps"
+    shutil.copytree(table.STORE, kept)
+    out = tmp / "accuracy.md"
+    rc = table.main(
+        ["--stored-only", "--check", "--quiet", "--store", str(kept), "--out", str(out)]
+    )
+    return rc, out.read_text()
+
+
+def _generated_part(text: str) -> str:
+    head, marker, _ = text.partition(table.KEEP_MARKER)
+    assert marker, "the line that ends the generated part is missing"
+    return head
+
+
+def test_every_kept_design_meets_the_bar(regenerated: tuple[int, str]) -> None:
+    rc, _ = regenerated
+    assert rc == 0
+
+
+def test_the_kept_runs_cover_every_row_of_the_committed_table(
+    regenerated: tuple[int, str],
+) -> None:
+    rows = [line for line in DOC.read_text().splitlines() if line.startswith("| ")]
+    _, text = regenerated
+    assert rows[2:] == [line for line in text.splitlines() if line.startswith("| ")][2:]
+
+
+def test_docs_accuracy_md_is_todays_comparison(regenerated: tuple[int, str]) -> None:
+    _, text = regenerated
+    assert _generated_part(DOC.read_text()) == _generated_part(text)
+
+
+def test_the_text_after_the_marker_is_kept(tmp_path: Path) -> None:
+    out = tmp_path / "accuracy.md"
+    out.write_text(f"old table\n{table.KEEP_MARKER}\n## Discussion\n\nBy hand.\n")
+    argv = ["--only", "X 1 3", "--stored-only", "--quiet", "--store", str(table.STORE)]
+    assert table.main([*argv, "--out", str(out)]) == 0
+    text = out.read_text()
+    assert text.startswith("# Accuracy")
+    assert text.endswith(f"{table.KEEP_MARKER}\n## Discussion\n\nBy hand.\n")
+    assert "old table" not in text
+
+
+def test_runs_kept_under_another_key_are_found_and_named(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    design = table.Design("X", 1.0, 3.0)
+    today = table.store_path(table.STORE, design, 21)
+    old_key = "0" * 20
+    stale = tmp_path / today.name.replace(today.name.split(".")[-2], old_key)
+    store.save(stale, replace(store.load(today), key=old_key))
+    assert table.stored_path(tmp_path, design, 21) == stale
+    evidence, path = table.engine_map(design, 21, tmp_path, quiet=True)
+    assert path == stale
+    assert evidence.engine.grid == 21
+    assert "made with other engine code" in capsys.readouterr().err
