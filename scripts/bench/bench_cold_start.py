@@ -525,6 +525,8 @@ def node_client(config: Mapping[str, Any]) -> dict[str, Any]:
         qos_profile_sensor_data,
     )
 
+    from xface_ros import names
+
     t0, period_s = float(config["t0"]), float(config["period_s"])
     x_m, y_m, qz, qw = config["pose"]
     answers: list[tuple[float, int | None, str]] = []  # (arrival, input stamp ns, message)
@@ -545,8 +547,8 @@ def node_client(config: Mapping[str, Any]) -> dict[str, Any]:
             reliability=ReliabilityPolicy.RELIABLE,
             durability=DurabilityPolicy.VOLATILE,
         )
-        node.create_subscription(DiagnosticStatus, "prediction/status", on_status, result_qos)
-        pub = node.create_publisher(PoseStamped, "relative_pose", qos_profile_sensor_data)
+        node.create_subscription(DiagnosticStatus, names.STATUS, on_status, result_qos)
+        pub = node.create_publisher(PoseStamped, names.POSES, qos_profile_sensor_data)
         report["client_ready_s"] = time.monotonic() - t0
 
         def publish() -> None:

@@ -145,8 +145,9 @@ def run_stress(
     from rclpy.signals import SignalHandlerOptions
 
     from xface_core.frames import DockStart, start_to_relative_pose
+    from xface_ros import names
     from xface_ros.conversions import planar_to_pose
-    from xface_ros.node import RESULT_QOS
+    from xface_ros.node import NODE_NAME, RESULT_QOS
 
     context = Context()
     rclpy.init(context=context, domain_id=domain_id, signal_handler_options=SignalHandlerOptions.NO)
@@ -185,19 +186,19 @@ def run_stress(
 
     def on_diagnostics(array: DiagnosticArray) -> None:
         for status in array.status:
-            if status.name == "/xface_predictor: predictor":
+            if status.name == f"/{NODE_NAME}: predictor":
                 with lock:
                     diagnostics.append({kv.key: kv.value for kv in status.values})
 
-    client_node.create_subscription(DiagnosticStatus, "prediction/status", on_status, RESULT_QOS)
-    client_node.create_subscription(DiagnosticArray, "/diagnostics", on_diagnostics, 10)
+    client_node.create_subscription(DiagnosticStatus, names.STATUS, on_status, RESULT_QOS)
+    client_node.create_subscription(DiagnosticArray, names.DIAGNOSTICS, on_diagnostics, 10)
     if covariance is None:
-        pub = client_node.create_publisher(PoseStamped, "relative_pose", qos_profile_sensor_data)
+        pub = client_node.create_publisher(PoseStamped, names.POSES, qos_profile_sensor_data)
     else:
         pub = client_node.create_publisher(
-            PoseWithCovarianceStamped, "relative_pose_with_covariance", qos_profile_sensor_data
+            PoseWithCovarianceStamped, names.POSES_WITH_COVARIANCE, qos_profile_sensor_data
         )
-    plan_client = client_node.create_client(GetPlan, "predict")
+    plan_client = client_node.create_client(GetPlan, names.PREDICT)
     spin = threading.Thread(target=executor.spin, daemon=True)
     spin.start()
 
