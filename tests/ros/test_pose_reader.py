@@ -149,6 +149,51 @@ def test_two_subscriptions_are_read_by_one_reader(ros: Ros) -> None:
         reader.stop()
 
 
+def test_a_qos_event_reaches_its_handler_on_the_reader_thread(ros: Ros) -> None:
+    # A best-effort publisher cannot serve a reliable subscription: the subscription's
+    # "requested incompatible QoS" event, which the reader polls apart from the messages.
+    events: list[tuple[int, str]] = []
+    seen = threading.Event()
+
+    def on_incompatible(info: Any) -> None:
+        events.append((int(info.total_count), threading.current_thread().name))
+        seen.set()
+
+    callbacks = SubscriptionEventCallbacks(incompatible_qos=on_incompatible)
+    sub = ros.node.create_subscription(
+        Int32, "poses", lambda _: None, RELIABLE, callback_group=ReadByPoseReader(),
+        event_callbacks=callbacks,
+    )  # fmt: skip
+    reader = PoseReader(ros.context, [sub], ListLogger())
+    reader.start()
+    try:
+        best_effort = QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT)
+        ros.node.create_publisher(Int32, "poses", best_effort)
+        assert seen.wait(WAIT_S)
+        assert events[0][0] >= 1
+        assert {thread for _, thread in events} == {THREAD_NAME}
+    finally:
+        reader.stop()
+
+
+def test_messages_keep_flowing_beside_a_qos_event(ros: Ros) -> None:
+    got = Received()
+    callbacks = SubscriptionEventCallbacks(incompatible_qos=lambda _: None)
+    sub = ros.node.create_subscription(
+        Int32, "poses", got.add, RELIABLE, callback_group=ReadByPoseReader(),
+        event_callbacks=callbacks,
+    )  # fmt: skip
+    reader = PoseReader(ros.context, [sub], ListLogger())
+    reader.start()
+    try:
+        best_effort = QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT)
+        ros.node.create_publisher(Int32, "poses", best_effort)
+        publish_when_matched(ros.node, "poses", list(range(20)))
+        assert got.wait_count(20) == list(range(20))
+    finally:
+        reader.stop()
+
+
 def test_a_failing_callback_is_logged_and_the_reader_goes_on(ros: Ros) -> None:
     got = Received()
 
