@@ -119,10 +119,15 @@ def _cache_key(design: Design, grid: int) -> str:
         repr(scene.DEFAULT_ENGINE),
         repr(scene.DEFAULT_ROUNDING),
         repr(cc.MAX_HALVINGS),
-        hashlib.sha256(Path(scene.__file__).read_bytes()).hexdigest(),
+        _scene_sha256(),
         scene.pymunk.version,
     ]
     return hashlib.sha256("\n".join(parts).encode()).hexdigest()[:20]
+
+
+def _scene_sha256() -> str:
+    """The engine scene's source, hashed: the runs depend on its code."""
+    return hashlib.sha256(Path(scene.__file__).read_bytes()).hexdigest()
 
 
 def _slug(design: Design) -> str:
@@ -150,7 +155,7 @@ def provenance() -> dict[str, str]:
     """What the engine's runs were made with, in words (the key hashes the same)."""
     return {
         "pymunk": str(scene.pymunk.version),
-        "scene_sha256": hashlib.sha256(Path(scene.__file__).read_bytes()).hexdigest(),
+        "scene_sha256": _scene_sha256(),
     }
 
 
@@ -163,18 +168,17 @@ def engine_map(
     ``store_dir``, written there."""
     key = _cache_key(design, grid)
     path = None if store_dir is None else stored_path(store_dir, design, grid)
-    if path is not None and path.exists():
-        stored = store.load(path)
-        if stored.key != key:
-            if rerun_stale:
-                path = None
-            else:
-                print(
-                    f"{design.label}: {path.name} was made with other engine code or settings "
-                    f"({stored.provenance}); used as stored (--rerun-stale runs it again)",
-                    file=sys.stderr,
-                )
-    if path is not None and path.exists():
+    stored = None if path is None else store.load(path)
+    if stored is not None and path is not None and stored.key != key:
+        if rerun_stale:
+            stored = None
+        else:
+            print(
+                f"{design.label}: {path.name} was made with other engine code or settings "
+                f"({dict(stored.provenance)}); used as stored (--rerun-stale runs it again)",
+                file=sys.stderr,
+            )
+    if stored is not None and path is not None:
         if stored.engine.stall_changes is not None:
             return stored, path
         # Stored before the stall confirmation existed: add it (only the jammed cells run).
