@@ -64,9 +64,13 @@ def test_docs_accuracy_md_is_todays_comparison(regenerated: tuple[int, str]) -> 
 
 
 def test_the_text_after_the_marker_is_kept(tmp_path: Path) -> None:
+    kept = tmp_path / "engine_maps"
+    kept.mkdir()
+    design = table.Design("X", 1.0, 3.0)
+    shutil.copy(table.store_path(table.STORE, design, 21), kept)
     out = tmp_path / "accuracy.md"
     out.write_text(f"old table\n{table.KEEP_MARKER}\n## Discussion\n\nBy hand.\n")
-    argv = ["--only", "X 1 3", "--stored-only", "--quiet", "--store", str(table.STORE)]
+    argv = ["--only", "X 1 3", "--stored-only", "--quiet", "--store", str(kept)]
     assert table.main([*argv, "--out", str(out)]) == 0
     text = out.read_text()
     assert text.startswith("# Accuracy")
