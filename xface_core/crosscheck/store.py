@@ -20,8 +20,9 @@ A file holds:
   the map's settings from cells beside a disagreeing one (:func:`~.compare.drop_knife_edges`),
   added as xface's disagreements ask for them.
 
-:func:`load` reads it with numpy's pickles refused and checks every array: a file that is
-not one of these (truncated, hostile, of another version) raises
+:func:`load` reads it with numpy's pickles refused, after checking that its arrays take at
+most :data:`MAX_BYTES`, and checks every array: a file that is not one of these (truncated,
+hostile, of another version, too large) raises
 :class:`~xface_core.errors.XfaceValueError` naming the file and what is wrong.
 """
 
@@ -50,8 +51,12 @@ __all__ = ["FORMAT", "VERSION", "StoredEvidence", "load", "save"]
 FORMAT = "xface-engine-map"
 VERSION = 1
 #: Largest number of cells (map and probes) a file may hold: far above any map's (a 41 x 41
-#: grid is 1681), low enough that a hostile header cannot make the reader allocate much.
+#: grid is 1681).
 MAX_CELLS = 1_000_000
+#: Largest size of a file's arrays once read (bytes), checked in the archive's directory
+#: before any array is read: a 21 x 21 map with its runs is about 100 kB, and a hostile file
+#: (a few kB of zeros compressed) cannot make the reader allocate more than this.
+MAX_BYTES = 64 * 2**20
 
 #: One engine run's fields as stored: name and numpy dtype (``reason`` as unicode text).
 _RUN_FIELDS: tuple[tuple[str, str], ...] = (
@@ -85,14 +90,13 @@ class StoredEvidence:
 
 
 def _columns(prefix: str, runs: list[EngineRun]) -> dict[str, npt.NDArray[Any]]:
+    """One array per :class:`~.scene.EngineRun` field, named ``<prefix>_<field>``."""
     out: dict[str, npt.NDArray[Any]] = {}
     for name, dtype in _RUN_FIELDS:
         values = [getattr(r, name) for r in runs]
         if name == "outcome":
             values = [int(v) for v in values]
-        out[f"{prefix}_{name}"] = np.asarray(values, dtype=dtype if dtype != "U" else str)
-    if not runs:
-        out[f"{prefix}_reason"] = np.zeros(0, dtype="U1")
+        out[f"{prefix}_{name}"] = np.asarray(values, dtype=dtype)
     return out
 
 
@@ -157,8 +161,10 @@ class _Reader:
         return a
 
     def runs(self, prefix: str, n: int) -> list[EngineRun]:
-        kinds = {"i1": "i", "i8": "i", "f8": "f", "?": "b", "U": "U"}
-        cols = {name: self.array(f"{prefix}_{name}", kinds[dt], n) for name, dt in _RUN_FIELDS}
+        cols = {
+            name: self.array(f"{prefix}_{name}", np.dtype(dtype).kind, n)
+            for name, dtype in _RUN_FIELDS
+        }
         known = {int(o) for o in Outcome}
         bad = set(np.unique(cols["outcome"]).tolist()) - known
         if bad:
@@ -208,6 +214,15 @@ def _settings(reader: _Reader, raw: object) -> EngineSettings:
 
 def load(path: Path) -> StoredEvidence:
     """Read a file written by :func:`save` (pickles refused, every array checked)."""
+    try:
+        with zipfile.ZipFile(path) as archive:
+            size = sum(info.file_size for info in archive.infolist())
+    except (OSError, zipfile.BadZipFile) as exc:
+        raise XfaceValueError(f"engine map file {path}: cannot be read ({exc})") from None
+    if size > MAX_BYTES:
+        raise XfaceValueError(
+            f"engine map file {path}: its arrays take {size} bytes (at most {MAX_BYTES})"
+        )
     try:
         with np.load(path, allow_pickle=False) as npz:
             data = {name: npz[name] for name in npz.files}

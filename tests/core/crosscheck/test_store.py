@@ -13,7 +13,7 @@ import pytest
 import xface_core as xf
 from xface_core.crosscheck import DEFAULT_ENGINE, EngineRun
 from xface_core.crosscheck.compare import EngineMap, engine_map
-from xface_core.crosscheck.store import MAX_CELLS, StoredEvidence, load, save
+from xface_core.crosscheck.store import MAX_BYTES, MAX_CELLS, StoredEvidence, load, save
 from xface_core.errors import XfaceValueError
 
 
@@ -134,4 +134,12 @@ def test_an_absurd_number_of_cells_is_refused(tmp_path: Path, small_map: EngineM
     save(path, StoredEvidence("k", "", small_map))
     _rewrite(path, probe_x0=np.zeros(MAX_CELLS + 1))
     with pytest.raises(XfaceValueError, match="at most"):
+        load(path)
+
+
+def test_a_file_whose_arrays_would_take_too_much_memory_is_refused_unread(tmp_path: Path) -> None:
+    path = tmp_path / "bomb.npz"
+    np.savez_compressed(path, x0=np.zeros(MAX_BYTES // 8 + 1))  # a few kB on disk
+    assert path.stat().st_size < MAX_BYTES // 100
+    with pytest.raises(XfaceValueError, match="bytes"):
         load(path)
