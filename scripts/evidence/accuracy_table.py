@@ -16,11 +16,12 @@ The engine's runs depend only on the polygons, the physics and the engine's sett
 xface: they are kept in ``--store`` (default ``scripts/evidence/engine_maps/``, committed: one
 ``.npz`` of plain arrays per design, :mod:`xface_core.crosscheck.store`, named by the design
 and a key hashing all of those and the scene's source), with the extra runs of the knife-edge
-checks, so that a rerun after a change to xface only reruns xface (about a minute for the
-whole table). A design without a file runs the engine and writes one; ``--no-store`` reruns
-the engine and writes nothing. The engine takes from a minute to hours per design on two
-cores. A change to the scene's code or settings changes every key: the stored runs then no
-longer apply, and the table runs the engine again.
+checks, so that a rerun after a change to xface only reruns xface (seconds for the whole
+table). A design without a file runs the engine and writes one; ``--no-store`` reruns the
+engine and writes nothing. The engine takes from a minute to hours per design on two cores.
+A change to the scene's code or settings, or another pymunk, changes every key: the kept runs
+are then used as they are, with a warning naming what they were made with, unless
+``--rerun-stale`` runs the engine again.
 
 With ``--out`` an existing file keeps everything after the line :data:`KEEP_MARKER` (the
 hand-written discussion of the disagreements); only the text above it is generated.

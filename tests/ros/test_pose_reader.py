@@ -149,9 +149,32 @@ def test_two_subscriptions_are_read_by_one_reader(ros: Ros) -> None:
         reader.stop()
 
 
+#: A best-effort publisher cannot serve a RELIABLE subscription: the subscription gets a
+#: "requested incompatible QoS" event, which the reader handles beside the messages.
+BEST_EFFORT = QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT)
+
+
+@contextlib.contextmanager
+def reading_beside_an_incompatible_publisher(
+    ros: Ros, on_message: Any, on_incompatible: Any
+) -> Iterator[None]:
+    """A reader of a reliable "poses" subscription with an incompatible-QoS handler, running
+    while a best-effort publisher of the topic exists."""
+    callbacks = SubscriptionEventCallbacks(incompatible_qos=on_incompatible)
+    sub = ros.node.create_subscription(
+        Int32, "poses", on_message, RELIABLE, callback_group=ReadByPoseReader(),
+        event_callbacks=callbacks,
+    )  # fmt: skip
+    reader = PoseReader(ros.context, [sub], ListLogger())
+    reader.start()
+    try:
+        ros.node.create_publisher(Int32, "poses", BEST_EFFORT)
+        yield
+    finally:
+        reader.stop()
+
+
 def test_a_qos_event_reaches_its_handler_on_the_reader_thread(ros: Ros) -> None:
-    # A best-effort publisher cannot serve a reliable subscription: the subscription's
-    # "requested incompatible QoS" event, which the reader polls apart from the messages.
     events: list[tuple[int, str]] = []
     seen = threading.Event()
 
@@ -159,39 +182,17 @@ def test_a_qos_event_reaches_its_handler_on_the_reader_thread(ros: Ros) -> None:
         events.append((int(info.total_count), threading.current_thread().name))
         seen.set()
 
-    callbacks = SubscriptionEventCallbacks(incompatible_qos=on_incompatible)
-    sub = ros.node.create_subscription(
-        Int32, "poses", lambda _: None, RELIABLE, callback_group=ReadByPoseReader(),
-        event_callbacks=callbacks,
-    )  # fmt: skip
-    reader = PoseReader(ros.context, [sub], ListLogger())
-    reader.start()
-    try:
-        best_effort = QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT)
-        ros.node.create_publisher(Int32, "poses", best_effort)
+    with reading_beside_an_incompatible_publisher(ros, lambda _: None, on_incompatible):
         assert seen.wait(WAIT_S)
         assert events[0][0] >= 1
         assert {thread for _, thread in events} == {THREAD_NAME}
-    finally:
-        reader.stop()
 
 
 def test_messages_keep_flowing_beside_a_qos_event(ros: Ros) -> None:
     got = Received()
-    callbacks = SubscriptionEventCallbacks(incompatible_qos=lambda _: None)
-    sub = ros.node.create_subscription(
-        Int32, "poses", got.add, RELIABLE, callback_group=ReadByPoseReader(),
-        event_callbacks=callbacks,
-    )  # fmt: skip
-    reader = PoseReader(ros.context, [sub], ListLogger())
-    reader.start()
-    try:
-        best_effort = QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT)
-        ros.node.create_publisher(Int32, "poses", best_effort)
+    with reading_beside_an_incompatible_publisher(ros, got.add, lambda _: None):
         publish_when_matched(ros.node, "poses", list(range(20)))
         assert got.wait_count(20) == list(range(20))
-    finally:
-        reader.stop()
 
 
 def test_a_failing_callback_is_logged_and_the_reader_goes_on(ros: Ros) -> None:

@@ -571,17 +571,12 @@ def drop_knife_edges(
     if not result.disagreements:
         return replace(result, knife_edges=0)
     cells = knife_edge_cells(result)
-    have = {} if known is None else known
-    missing = [c for c in cells if c not in have]
+    by_cell = dict(known or {})
+    missing = [c for c in cells if c not in by_cell]
     tasks = [(x0, theta0, result.settings) for x0, theta0 in missing]
-    fresh = dict(
-        zip(
-            missing,
-            run_engine(result.design, result.physics, tasks, workers=workers, progress=progress),
-            strict=True,
-        )
-    )
-    runs = [have[c] if c in have else fresh[c] for c in cells]
+    ran = run_engine(result.design, result.physics, tasks, workers=workers, progress=progress)
+    by_cell.update(zip(missing, ran, strict=True))
+    runs = [by_cell[c] for c in cells]
     ambiguous = result.ambiguous.copy()
     kept = []
     for k, dis in enumerate(result.disagreements):
