@@ -31,13 +31,22 @@ def largest_rectangle(ok: npt.ArrayLike) -> CellRect | None:
     True
     """
     grid = np.asarray(ok, dtype=bool)
-    n_cols = grid.shape[1]
+    rows, cols = np.flatnonzero(grid.any(axis=1)), np.flatnonzero(grid.any(axis=0))
+    if rows.size == 0:
+        return None
+    # Only the bounding box of the True cells can hold a rectangle, and a column of False
+    # cells left of it closes rectangles as the box's own edge does: the same rectangles are
+    # found in the same order. A map's seated cells are mostly a small patch (the box saved
+    # most of the 0.8 ms this took per 41 x 41 map of the paper's tables).
+    r0, c0 = int(rows[0]), int(cols[0])
+    box = grid[r0 : int(rows[-1]) + 1, c0 : int(cols[-1]) + 1]
+    n_cols = box.shape[1]
     best_area = 0
     best: CellRect | None = None
     # Plain lists, with a 0 column closing every row: indexing numpy scalars one by one took
     # about 1 ms of a 41 x 41 map (3 % of the S map's time, all of it in the kernel else).
     heights = [0] * (n_cols + 1)
-    for r, row in enumerate(grid.tolist()):
+    for r, row in enumerate(box.tolist(), start=r0):
         for c, inside in enumerate(row):
             heights[c] = heights[c] + 1 if inside else 0
         stack: list[int] = []
@@ -50,7 +59,7 @@ def largest_rectangle(ok: npt.ArrayLike) -> CellRect | None:
                 area = height * (c - left)
                 if area > best_area:
                     best_area = area
-                    best = (range(r - height + 1, r + 1), range(left, c))
+                    best = (range(r - height + 1, r + 1), range(c0 + left, c0 + c))
             stack.append(c)
     return best
 

@@ -31,6 +31,24 @@ def test_largest_rectangle_matches_brute_force(grid: np.ndarray) -> None:
         assert grid[rect[0].start : rect[0].stop, rect[1].start : rect[1].stop].all()
 
 
+@given(
+    arrays(bool, st.tuples(st.integers(1, 7), st.integers(1, 7))),
+    st.tuples(*[st.integers(0, 3)] * 4),
+)
+def test_false_margins_shift_the_rectangle_found(grid: np.ndarray, pad: tuple[int, ...]) -> None:
+    # The search runs on the True cells' bounding box: margins of False cells around a grid
+    # move the rectangle found (the same one, ties included) and change nothing else.
+    top, bottom, left, right = pad
+    padded = np.pad(grid, ((top, bottom), (left, right)))
+    rect, moved = largest_rectangle(grid), largest_rectangle(padded)
+    if rect is None:
+        assert moved is None
+        return
+    assert moved is not None
+    assert (moved[0].start - top, moved[0].stop - top) == (rect[0].start, rect[0].stop)
+    assert (moved[1].start - left, moved[1].stop - left) == (rect[1].start, rect[1].stop)
+
+
 @given(arrays(bool, st.tuples(st.sampled_from([1, 3, 5, 7]), st.sampled_from([1, 3, 5]))))
 def test_centred_rectangle_is_centred_and_all_true(grid: np.ndarray) -> None:
     rect = largest_centred_rectangle(grid)
