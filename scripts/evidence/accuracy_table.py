@@ -112,10 +112,12 @@ DESIGNS: tuple[Design, ...] = (
 
 
 def _cache_key(design: Design, grid: int) -> str:
-    """Everything the engine's answer depends on."""
+    """Everything the engine's answer depends on (of the physics, what the scene takes:
+    xface's solver settings are not the engine's)."""
+    physics = design.physics()
     parts = [
         repr(design.build()),
-        repr(design.physics()),
+        repr((physics.damping_ratio, physics.friction)),
         str(grid),
         repr(scene.DEFAULT_ENGINE),
         repr(scene.DEFAULT_ROUNDING),
