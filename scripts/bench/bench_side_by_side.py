@@ -62,6 +62,11 @@ HEADER = (
 _ABSOLUTE = re.compile(r"(\bfrom\s+|\bimport\s+|[\"'])xface_core\b")
 
 
+#: What ``xface table --face all`` computes: the paper's table of every face (its designs,
+#: 41 x 41 maps), one worker process so that the code is timed, not the pool.
+TABLES = ("X", "V", "S")
+
+
 @dataclass(frozen=True)
 class Sizes:
     grid: int
@@ -69,17 +74,20 @@ class Sizes:
     map_calls: int
     maps: tuple[Design, ...]
     poses: tuple[Pose, ...]
+    tables: tuple[str, ...]
+    table_designs: dict[str, tuple[float, ...]] = field(default_factory=dict)
+    """``m_table``'s ``h_over_d`` and ``r_p`` (empty: the paper's)."""
 
 
-FULL = Sizes(41, 300, 5, MAPS, POSES)
-QUICK = Sizes(11, 5, 1, MAPS[:1], POSES[:1])
+FULL = Sizes(41, 300, 5, MAPS, POSES, TABLES)
+QUICK = Sizes(11, 5, 1, MAPS[:1], POSES[:1], TABLES[:1], {"h_over_d": (0.25,), "r_p": (2.0,)})
 
 
 @dataclass
 class Workload:
-    kind: str  # "predict", "map" or "batch"
+    kind: str  # "predict", "map", "batch" or "table"
     name: str
-    unit: str  # "us" or "ms"
+    unit: str  # "us", "ms" or "s"
     calls: int
     times: tuple[list[float], list[float]] = field(default_factory=lambda: ([], []))
 
@@ -174,6 +182,9 @@ def workloads(sizes: Sizes) -> list[Workload]:
     for d in sizes.maps:
         out.append(Workload("map", f"map {label(d)} {g}x{g}", "ms", sizes.map_calls))
         out.append(Workload("batch", f"batch {label(d)} {g}x{g}", "ms", sizes.map_calls))
+    for face in sizes.tables:
+        designs = "the paper's designs" if not sizes.table_designs else "one design"
+        out.append(Workload("table", f"table {face}, {designs}, {g}x{g}, 1 worker", "s", 1))
     return out
 
 
@@ -191,6 +202,8 @@ def workload_calls(
         face = xf.make_face(*d)
         out.append(lambda f=face: xf.acceptance_map(f, grid=g, **map_kw))
         out.append(lambda f=face: xf.predict_batch(f, x0 * f.width, th, **batch_kw))
+    for kind in sizes.tables:
+        out.append(lambda k=kind: xf.m_table(k, grid=g, workers=1, **sizes.table_designs))
     return out
 
 
@@ -288,7 +301,10 @@ def label(design: Design) -> str:
 
 
 def outcomes(result: Any) -> np.ndarray:
-    """AcceptanceMap.outcomes, BatchResult.outcome or Prediction.outcome as int codes."""
+    """AcceptanceMap.outcomes, BatchResult.outcome or Prediction.outcome as int codes, or
+    an MTable's seated counts M."""
+    if hasattr(result, "M"):
+        return np.asarray(result.M, dtype=np.int64)
     codes = result.outcomes if hasattr(result, "outcomes") else result.outcome
     return np.asarray(codes, dtype=np.int64)
 
@@ -299,7 +315,9 @@ def compare(sides: Sequence[Side], loads: Sequence[Workload], seated_code: int
     lines, same = [], True
     for k, w in enumerate(loads):
         a, b = (np.asarray(side.ask("outcomes", index=k)["codes"]) for side in sides)
-        if a.shape == b.shape and np.array_equal(a, b):
+        if a.shape == b.shape and np.array_equal(a, b) and w.kind == "table":
+            lines.append(f"identical M: {w.name} ({a.size} designs)")
+        elif a.shape == b.shape and np.array_equal(a, b):
             seated = int(np.count_nonzero(a == seated_code))
             lines.append(f"identical outcomes: {w.name} (poses {a.size}, seated {seated})")
         else:
@@ -337,7 +355,7 @@ def table(workloads: Sequence[Workload]) -> list[str]:
     rows = [HEADER, "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
     ratios: dict[str, list[float]] = {}
     for w in workloads:
-        b, a = (np.asarray(t) * {"us": 1e6, "ms": 1e3}[w.unit] for t in w.times)
+        b, a = (np.asarray(t) * {"us": 1e6, "ms": 1e3, "s": 1.0}[w.unit] for t in w.times)
         mb, ma, paired = statistics.median(b), statistics.median(a), a / b
         ratios.setdefault(w.kind, []).append(ma / mb)
         rows.append(
