@@ -65,8 +65,10 @@ class SolverSettings:
     angles there are only determined to about sqrt(event_tol) times a geometric factor
     (1e-5 seen), so the test must be looser than that; 1e-4 D is far below any machining
     tolerance."""
-    max_step: float = 0.05
-    """Largest descent step (D); also bounds how far a vertex can move unchecked."""
+    max_step: float = 0.25
+    """Largest descent step (D); also bounds how far a vertex can move unchecked. The
+    engine keeps a step within half the design's shortest edge as well, but never below
+    0.05 D (or this bound, if smaller)."""
     first_step: float = 1e-3
     """Initial descent step (D)."""
     max_steps: int = 20000

@@ -170,6 +170,12 @@ CUT_DEPTH = 1e-7  # D: deeper than this, a jump to a fold cut into a contact
 #: no faster beyond this machine's noise: not kept (docs/notes/
 #: 2026-11-23-corner-touching-rule-and-reference-check.md).
 MAX_TURN = 0.02
+#: D: a segment's descent step is kept within half the design's shortest edge (a vertex
+#: that goes in past a corner and out again then ends within half an edge of that corner,
+#: where the test of two corners crossed like an X looks: scan._crossing), but never below
+#: this, the longest step before the cap was by design (settings.max_step, 0.05 D): faces
+#: with finer features step as they did (segment.step_cap).
+STEP_CAP_FLOOR = 0.05
 #: D of descent ahead at which a friction state is judged: at a transition the state at the
 #: point itself is marginal (motion.friction_modes, events.locate).
 SLIP_PROBE = 1e-7

@@ -6,12 +6,13 @@ import numpy as np
 import pytest
 
 import xface_core as xf
-from xface_core._engine.pairs import COL_REACH
+from xface_core._engine.pairs import COL_EDGE_LENGTH, COL_REACH
 from xface_core._engine.records import (
     E_CONTACT,
     MAX_TURN,
     P_ALIGN,
     RUN_DTYPE,
+    STEP_CAP_FLOOR,
     UNDECIDED,
     Model,
     Step,
@@ -25,10 +26,12 @@ from xface_core._engine.segment import (
     accept_step,
     begin_segment,
     next_length,
+    step_cap,
     steps_to_event,
     trial_step,
 )
 from xface_core.physics import Physics
+from xface_core.runner import engine_model
 
 OPTS = make_options(Physics(damping_ratio=np.inf))  # the incline's base is held
 
@@ -256,3 +259,36 @@ def test_a_lone_slide_whose_rate_runs_away_chooses_again_and_both_mirror_runs_se
     ]
     assert [p.outcome for p in runs] == [xf.Outcome.SEATED, xf.Outcome.SEATED]
     assert runs[0].phi_m == pytest.approx(-runs[1].phi_m, abs=1e-6)
+
+
+def _pairs_with_shortest_edge(length: float) -> np.ndarray:
+    pairs = engine_model(xf.x_face(1.0, 1.0)).pairs.copy()
+    pairs[:, COL_EDGE_LENGTH] = np.maximum(pairs[:, COL_EDGE_LENGTH], length)
+    pairs[3, COL_EDGE_LENGTH] = length
+    return pairs
+
+
+@pytest.mark.parametrize(("shortest", "max_step", "cap"), [
+    (0.3, 0.25, 0.15),  # half the shortest edge
+    (1.0, 0.25, 0.25),  # the settings' bound
+    (0.04, 0.25, STEP_CAP_FLOOR),  # finer features: never below the floor ...
+    (0.04, 0.01, 0.01),  # ... unless the settings ask for less
+])  # fmt: skip
+def test_the_step_cap_is_half_the_shortest_edge_within_its_bounds(
+    shortest: float, max_step: float, cap: float
+) -> None:
+    assert step_cap(_pairs_with_shortest_edge(shortest), max_step) == pytest.approx(cap)
+
+
+def test_no_step_of_a_run_descends_further_than_the_cap() -> None:
+    # S 0.5/1: shortest edge 0.4167 D, so no step in contact is longer than 0.208 D; this
+    # pose's slide takes steps longer than the floor (0.13 D).
+    design = xf.s_face(0.5, 1.0)
+    cap = step_cap(engine_model(design).pairs, Physics().settings.max_step)
+    assert cap == pytest.approx(0.5 * 0.4167, abs=1e-4)
+    path = xf.predict(design, -1.0 * design.width, 0.1 * np.pi).path
+    assert path is not None
+    in_contact = path.phase[1:] > 0  # the approach before is exact, not stepped
+    steps = np.diff(path.descent)[in_contact] / design.width
+    assert steps.max() <= cap * (1 + 1e-12)
+    assert steps.max() > STEP_CAP_FLOOR
