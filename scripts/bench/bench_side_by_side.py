@@ -1,7 +1,8 @@
 """Time two versions of xface_core side by side: the ratio after/before.
 
     python scripts/bench/bench_side_by_side.py --before <git-rev> [--after <git-rev>|WORKTREE]
-        [--repeats N] [--quick] [--out docs/notes/DATE-side-by-side-SUBJECT.md] [--note TEXT]
+        [--repeats N] [--quick] [--only predict,map,batch,table]
+        [--out docs/notes/DATE-side-by-side-SUBJECT.md] [--note TEXT]
 
 A git revision's ``xface_core/`` is extracted (``git archive``) into a temporary directory as
 a package of its own name (``xface_core_before``/``_after``), its absolute ``xface_core``
@@ -83,12 +84,18 @@ FULL = Sizes(41, 300, 5, MAPS, POSES, TABLES)
 QUICK = Sizes(11, 5, 1, MAPS[:1], POSES[:1], TABLES[:1], {"h_over_d": (0.25,), "r_p": (2.0,)})
 
 
+#: The kinds of workload, as ``--only`` names them.
+KINDS = ("predict", "map", "batch", "table")
+
+
 @dataclass
 class Workload:
-    kind: str  # "predict", "map", "batch" or "table"
+    kind: str  # one of KINDS
     name: str
     unit: str  # "us", "ms" or "s"
     calls: int
+    index: int = -1
+    """Its call's place in :func:`workload_calls` (the served process builds them all)."""
     times: tuple[list[float], list[float]] = field(default_factory=lambda: ([], []))
 
 
@@ -185,6 +192,8 @@ def workloads(sizes: Sizes) -> list[Workload]:
     for face in sizes.tables:
         designs = "the paper's designs" if not sizes.table_designs else "one design"
         out.append(Workload("table", f"table {face}, {designs}, {g}x{g}, 1 worker", "s", 1))
+    for k, w in enumerate(out):
+        w.index = k
     return out
 
 
@@ -313,8 +322,8 @@ def compare(sides: Sequence[Side], loads: Sequence[Workload], seated_code: int
             ) -> tuple[list[str], bool]:  # fmt: skip
     """One line per workload: do both versions give the same outcomes?"""
     lines, same = [], True
-    for k, w in enumerate(loads):
-        a, b = (np.asarray(side.ask("outcomes", index=k)["codes"]) for side in sides)
+    for w in loads:
+        a, b = (np.asarray(side.ask("outcomes", index=w.index)["codes"]) for side in sides)
         if a.shape == b.shape and np.array_equal(a, b) and w.kind == "table":
             lines.append(f"identical M: {w.name} ({a.size} designs)")
         elif a.shape == b.shape and np.array_equal(a, b):
@@ -342,9 +351,9 @@ def measure(
         try:
             for side in sides:
                 side.ask("setup", **setup)
-            for k, w in enumerate(loads):
+            for w in loads:
                 for side in (0, 1):
-                    seconds = sides[side].ask("time", index=k, calls=w.calls)["seconds"]
+                    seconds = sides[side].ask("time", index=w.index, calls=w.calls)["seconds"]
                     w.times[side].append(seconds)
         finally:
             for side in sides:
@@ -392,7 +401,8 @@ def report(args: argparse.Namespace, argv: Sequence[str], info: dict[str, Any]) 
         (
             f"- {args.repeats} repeats per side, interleaved, each in a fresh process; "
             f"per-call medians; "
-            f"{'quick' if args.quick else 'full'} workloads; threads: {info['threads']}; "
+            f"{'quick' if args.quick else 'full'} workloads ({', '.join(args.only)}); "
+            f"threads: {info['threads']}; "
             f"warm-up (compile or cache load) {warm[0]:.1f} s before, {warm[1]:.1f} s after"
         ),
         f"- machine: {machine_note()}; {datetime.now(UTC):%Y-%m-%d %H:%M} UTC",
@@ -410,9 +420,18 @@ def parse(argv: Sequence[str]) -> argparse.Namespace:
     parser.add_argument("--quick", action="store_true", help="tiny workloads (for the tests)")
     parser.add_argument("--out", type=Path, help="also write the Markdown report here")
     parser.add_argument("--note", default="", help="a line to put at the top of the report")
+    parser.add_argument(
+        "--only",
+        default=",".join(KINDS),
+        help=f"comma-separated kinds of workload (default: all: {','.join(KINDS)})",
+    )
     args = parser.parse_args(argv)
     if args.repeats < 1:
         parser.error("--repeats must be >= 1")
+    args.only = [kind.strip() for kind in args.only.split(",") if kind.strip()]
+    unknown = sorted(set(args.only) - set(KINDS))
+    if unknown or not args.only:
+        parser.error(f"--only takes kinds among {', '.join(KINDS)}, got {args.only}")
     return args
 
 
@@ -430,7 +449,7 @@ def run_both(args: argparse.Namespace, tmp: Path) -> tuple[dict[str, Any], bool]
         setup = {"quick": args.quick, "map_kw": kws["acceptance_map"],
                  "batch_kw": kws["predict_batch"]}  # fmt: skip
         warmup_s = [side.ask("setup", **setup)["warmup"] for side in sides]
-        loads = workloads(QUICK if args.quick else FULL)
+        loads = [w for w in workloads(QUICK if args.quick else FULL) if w.kind in args.only]
         checks, same = compare(sides, loads, int(hellos[0]["seated"]))
         print("\n".join(checks), file=sys.stderr, flush=True)
     finally:

@@ -81,3 +81,10 @@ def test_a_bad_revision_exits_2(capsys: pytest.CaptureFixture[str]) -> None:
 def test_repeats_must_be_positive() -> None:
     with pytest.raises(SystemExit):
         bench.parse(["--before", "HEAD", "--repeats", "0"])
+
+
+def test_only_keeps_the_kinds_named_and_refuses_others() -> None:
+    assert bench.parse(["--before", "HEAD", "--only", "table, map"]).only == ["table", "map"]
+    assert bench.parse(["--before", "HEAD"]).only == list(bench.KINDS)
+    with pytest.raises(SystemExit):
+        bench.parse(["--before", "HEAD", "--only", "maps"])
