@@ -44,7 +44,7 @@ def test_quick_run_writes_a_table_with_ratios(tmp_path: Path) -> None:
     assert len(rows) == 1
     ratio = rows[0].split("|")[5]
     assert re.fullmatch(r" \d+\.\d{3} ", ratio)
-    assert "identical outcomes: map X 0.25/2 11x11" in text
+    assert "identical outcomes: map X 0.25/2 11x11 (poses 121," in text  # every cell compared
     assert "identical M: table X, one design, 11x11, 1 worker (1 designs)" in text
     assert any(line.startswith("| every table (geometric mean) |") for line in text.splitlines())
     assert "xface_core_before" not in sys.modules  # the copy is unloaded
