@@ -331,7 +331,8 @@ def compare(sides: Sequence[Side], loads: Sequence[Workload], seated_code: int
         else:
             same = False
             n = int(np.count_nonzero(a != b)) if a.shape == b.shape else a.size
-            lines.append(f"OUTCOMES DIFFER: {w.name} (in {n} of {a.size} poses)")
+            what = ("M DIFFERS", "designs") if w.kind == "table" else ("OUTCOMES DIFFER", "poses")
+            lines.append(f"{what[0]}: {w.name} (in {n} of {a.size} {what[1]})")
     return lines, same
 
 
