@@ -106,12 +106,44 @@ def _active_events(
                 # turns back here and cannot descend further.
                 kind = E_TURN
                 hk = lo
+                best = _release_before_pole(opts, seg, step, k, lo, best)
             best = earlier(Event(kind, pair, hk), best)
         ecb, esb, ecm, esm = end
         _, u, _, _, _, _, _, _, _ = eval_pair(held.pairs[pair], ecb, esb, ecm, esm, held.x0, y1)
         if u < -U_TOL or u > 1.0 + U_TOL:
             _, hk = locate(seg, step, tol, E_OFF_EDGE, pair, k, 0.0)
             best = earlier(Event(E_OFF_EDGE, pair, hk), best)
+    return best
+
+
+@njit_no_refcount
+def _release_before_pole(
+    opts: Options, seg: Segment, step: Step, k: int, t_pole: float, best: Event
+) -> Event:
+    """The release of another held contact before the pole of contact ``k``'s force found a
+    descent ``t_pole`` (D) into the step, or ``best``.
+
+    Through the pole every force changes sign, so another contact whose force crossed zero
+    before it (a release: the two-contact motion would pull it) is positive again at the
+    step's end, and the end's check does not see it. Its force is sampled at a quarter, half
+    and three quarters of the way to the pole, on the integrated path; the first negative
+    sample closes the search for its zero. (X 0.25/1 at x0 = -0.85 D, theta0 = 0.7069 crossed
+    a release 0.3 of the way into its step and ended at the pole as a jam; the independent
+    engine seats it, and so did xface with any other first step.)"""
+    held = seg.held
+    for j in range(held.n_active):
+        if j == k:
+            continue
+        for q in range(1, 4):
+            t = 0.25 * q * t_pole
+            pb, pm, _, _, ok = step_to(seg, step, t)
+            if not ok:
+                break
+            _, _, l1, l2 = velocity(held, pb, pm, step.y_m - t)
+            if (l1 if j == 0 else l2) < 0.0:
+                head = Step(step.phi_b, step.phi_m, step.y_m, t)
+                _, hj = locate(seg, head, opts.event_tol, E_RELEASE, held.act[j], j, 0.0)
+                return earlier(Event(E_RELEASE, held.act[j], hj), best)
     return best
 
 

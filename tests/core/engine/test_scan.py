@@ -345,3 +345,20 @@ def test_a_vertex_passing_beside_a_needle_s_tip_is_not_inside_it(incline) -> Non
     # The tip at x = 1.0, right of the vertex's path: it crosses both lines' extensions left
     # of the tip, the lower one first (in front of both in between).
     assert _through_needle(incline, 1.0) == 0.0
+
+
+@pytest.mark.parametrize("sign", [1.0, -1.0])
+def test_a_release_before_a_pole_in_the_same_step_comes_first(sign: float) -> None:
+    # X 0.25/1 from (-0.85 D, 0.7069) and its mirror: in one step of the two-contact segment
+    # contact 54's force crosses zero (0.3 of the step in), then both forces change sign
+    # through a pole, so 54's force is positive again at the step's end. Taking the pole
+    # alone, the run ended there as a jam (BAD_MATE); with the release first it seats, as the
+    # independent engine does (final angles 0.38739 at its default step and a quarter of it)
+    # and as xface does at 1000 times tighter tolerances.
+    design = xf.x_face(0.25, 1.0)
+    tight = xf.SolverSettings(rtol=1e-11, atol=1e-13, event_tol=1e-15)
+    x0, theta0 = sign * -0.85 * design.width, sign * 0.7068583470577035
+    p = xf.predict(design, x0, theta0)
+    reference = xf.predict(design, x0, theta0, settings=tight)
+    assert p.outcome == reference.outcome == xf.Outcome.SEATED
+    assert p.phi_b == pytest.approx(sign * 0.3873950, abs=1e-6)
