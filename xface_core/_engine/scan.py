@@ -129,7 +129,7 @@ def _release_before_pole(
     and three quarters of the way to the pole, on the integrated path; the first negative
     sample closes the search for its zero. (X 0.25/1 at x0 = -0.85 D, theta0 = 0.7069 crossed
     a release 0.3 of the way into its step and ended at the pole as a jam; the independent
-    engine seats it, and so did xface with any other first step.)"""
+    engine seats it, and so did xface with the other first steps tried, 1e-4 to 0.05 D.)"""
     held = seg.held
     for j in range(held.n_active):
         if j == k:

