@@ -323,15 +323,15 @@ def compare(sides: Sequence[Side], loads: Sequence[Workload], seated_code: int
     lines, same = [], True
     for w in loads:
         a, b = (np.asarray(side.ask("outcomes", index=w.index)["codes"]) for side in sides)
-        if a.shape == b.shape and np.array_equal(a, b) and w.kind == "table":
-            lines.append(f"identical M: {w.name} ({a.size} designs)")
-        elif a.shape == b.shape and np.array_equal(a, b):
+        table = w.kind == "table"  # a table's codes are its M per design
+        if a.shape == b.shape and np.array_equal(a, b):
             seated = int(np.count_nonzero(a == seated_code))
-            lines.append(f"identical outcomes: {w.name} (poses {a.size}, seated {seated})")
+            detail = f"{a.size} designs" if table else f"poses {a.size}, seated {seated}"
+            lines.append(f"identical {'M' if table else 'outcomes'}: {w.name} ({detail})")
         else:
             same = False
             n = int(np.count_nonzero(a != b)) if a.shape == b.shape else a.size
-            what = ("M DIFFERS", "designs") if w.kind == "table" else ("OUTCOMES DIFFER", "poses")
+            what = ("M DIFFERS", "designs") if table else ("OUTCOMES DIFFER", "poses")
             lines.append(f"{what[0]}: {w.name} (in {n} of {a.size} {what[1]})")
     return lines, same
 
