@@ -8,11 +8,13 @@ import numpy as np
 import pytest
 
 from xface_core._engine.events import (
+    HERMITE_TOL,
     NO_EVENT,
     QUARTER_SLOTS,
     QUARTER_STATE,
     START_RATE,
     Event,
+    _hermite_guess,
     angles_at,
     clear_step_memo,
     earlier,
@@ -251,3 +253,49 @@ def test_states_fall_back_to_an_integration_step_without_a_dense_output(incline)
     step = incline.step(0.02)
     pb, pm = angles_at(seg, step, 0.013)
     assert (pb, pm) == step_to(seg, step, 0.013)[:2]
+
+
+def _hermite_root(incline, seg, step, kind: int, idx: int) -> float:
+    """The zero of an event function along the step's cubic Hermite interpolant, by
+    bisection in Python to round-off (D)."""
+    nb, nm, _, _, _ = step_to(seg, step, step.h)
+    v0b, v0m, _, _ = velocity(seg.held, step.phi_b, step.phi_m, step.y_m)
+    v1b, v1m, _, _ = velocity(seg.held, nb, nm, step.y_m - step.h)
+
+    def f(tau: float) -> float:
+        t2, t3 = tau * tau, tau**3
+        h00, h10, h01, h11 = 2 * t3 - 3 * t2 + 1, t3 - 2 * t2 + tau, -2 * t3 + 3 * t2, t3 - t2
+        pb = h00 * step.phi_b + h10 * step.h * v0b + h01 * nb + h11 * step.h * v1b
+        pm = h00 * step.phi_m + h10 * step.h * v0m + h01 * nm + h11 * step.h * v1m
+        return event_value(seg, kind, idx, 0, 0.0, pb, pm, step.y_m - tau * step.h)
+
+    lo, hi = 0.0, 1.0
+    for _ in range(80):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if f(mid) > 0.0 else (lo, mid)
+    return 0.5 * (lo + hi) * step.h
+
+
+@pytest.mark.parametrize("h", [0.02, 0.05])
+def test_the_hermite_guess_is_the_interpolants_root_to_its_tolerance(incline, h) -> None:
+    step, seg = incline.step(h), incline.segment()
+    nb, nm, _, _, _ = step_to(seg, step, h)
+    f_lo = event_value(seg, E_CONTACT, 1, 0, 0.0, step.phi_b, step.phi_m, step.y_m)
+    f_hi = event_value(seg, E_CONTACT, 1, 0, 0.0, nb, nm, step.y_m - h)
+    assert f_lo > 0.0 >= f_hi
+    guess = _hermite_guess(seg, step, E_CONTACT, 1, 0, 0.0, nb, nm, f_lo, f_hi)
+    assert abs(guess - _hermite_root(incline, seg, step, E_CONTACT, 1)) <= HERMITE_TOL * h
+    # The interpolant is off the exact path by its error (3e-7 D at h = 0.05 D), which the
+    # bracket locate() centres on the guess, 2e-5 of the step either side, covers.
+    assert guess == pytest.approx(incline.s_touch, abs=1e-6)
+
+
+def test_the_hermite_guess_of_a_linear_event_is_its_zero(incline) -> None:
+    # y_M falls linearly with the descent: the first estimate is the zero, and the probe half
+    # a tolerance past it closes the bracket.
+    step = incline.step(0.05)
+    seg = incline.segment(y_floor=step.y_m - 0.0123)
+    nb, nm, _, _, _ = step_to(seg, step, step.h)
+    f_hi = step.y_m - step.h - seg.y_floor
+    guess = _hermite_guess(seg, step, E_BELOW_SEAT, -1, 0, 0.0, nb, nm, 0.0123, f_hi)
+    assert guess == pytest.approx(0.0123, abs=HERMITE_TOL * step.h)
