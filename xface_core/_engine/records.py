@@ -103,6 +103,11 @@ def njit_inline(fn: _F) -> _F:
     never computed and no tuple is passed back through memory. Bit for bit the same
     arithmetic; the maps 0.94 of their time for ``pairs.eval_pair`` alone
     (docs/notes/2026-11-24-inlined-pair-arithmetic.md).
+    Also the stages of a step's scan and the trial step (``scan.find_event`` and what it
+    calls once, ``segment.trial_step``): each runs once per step, and a call copies every
+    field of the ``Segment`` and ``Work`` it is passed (about two hundred words); inlined,
+    the maps took about 0.92 of their time, bit for bit, and the engine about 35 % longer to
+    compile (docs/notes/2026-11-30-scan-stages-inlined.md).
     A caller must pass its arguments one by one (numba cannot inline a call with ``*args``).
     """
     return one_specialization_per_type(cast(_F, njit(**_NO_REFCOUNT_FLAGS, inline="always")(fn)))

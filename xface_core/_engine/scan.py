@@ -77,7 +77,7 @@ def _trig_after(seg: Segment, step: Step, t: float) -> Trig:
     return _trig(pb, pm)
 
 
-@njit_no_refcount
+@njit_inline
 def _active_events(
     opts: Options, seg: Segment, step: Step, nb: float, nm: float, end: Trig, best: Event
 ) -> Event:
@@ -147,7 +147,7 @@ def _release_before_pole(
     return best
 
 
-@njit_no_refcount
+@njit_inline
 def _slip_events(
     opts: Options, seg: Segment, step: Step, nb: float, nm: float, best: Event
 ) -> Event:
@@ -172,7 +172,7 @@ def _slip_events(
     return best
 
 
-@njit_no_refcount
+@njit_inline
 def _contact_events(
     opts: Options, seg: Segment, step: Step, work: Work, nb: float, nm: float, start: Trig,
     end: Trig, best: Event,
@@ -528,7 +528,7 @@ def _far_outside_or_behind(
     return _behind_from_quarters(seg, step, i, thr, rates, start, end, ceiling, g_top)
 
 
-@njit_no_refcount
+@njit_inline
 def _contacts_before(
     opts: Options, seg: Segment, step: Step, work: Work, start: Trig, best: Event
 ) -> Event:
@@ -787,7 +787,7 @@ def _crossing(
     return not wedges_cross(row, cb, sb, cm, sm, x0, y, margin, rays)
 
 
-@njit_no_refcount
+@njit_inline
 def _crossed_at_event(opts: Options, seg: Segment, step: Step, work: Work, nb: float,
                       nm: float, start: Trig, best: Event) -> bool:  # fmt: skip
     """:func:`_crossing` at the state of the earliest event found (the step's end has it
@@ -815,7 +815,7 @@ def _crossed_at_event(opts: Options, seg: Segment, step: Step, work: Work, nb: f
     return False
 
 
-@njit_no_refcount
+@njit_inline
 def find_event(opts: Options, seg: Segment, step: Step, work: Work, nb: float, nm: float) -> Event:
     """The earliest event in the trial step that ends at ``(nb, nm)``, or ``NO_EVENT``."""
     # The trigonometry of the step's two ends, once for every source (each computed it

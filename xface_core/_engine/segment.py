@@ -56,6 +56,7 @@ from .records import (
     Work,
     held_contacts,
     njit_cached,
+    njit_inline,
     njit_no_refcount,
 )
 from .scan import asleep, find_event, reach_budget, wake
@@ -131,7 +132,7 @@ def begin_segment(
     return _segment(model, opts, run, work)
 
 
-@njit_no_refcount
+@njit_inline
 def trial_step(opts: Options, seg: Segment, step: Step) -> tuple[float, float, float, float, bool]:
     """Integrate the trial step: ``(phi_b, phi_m, err, turn, ok)`` with the error relative
     to the tolerances (accept at <= 1) and the largest rotation in the step (rad)."""

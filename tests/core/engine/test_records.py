@@ -174,6 +174,13 @@ INLINED = {
     "events._remembers", "events._remembered_velocity", "events.angles_at",
     "events.end_velocity", "events.has_dense", "events.quarter_state",
     "events.start_velocity", "events.step_to",
+} | {
+    # The stages of a step's scan and the trial step, each called once per step: a call
+    # passes Segment and Work (about two hundred words) by value (maps about 0.92 of their
+    # time, bit for bit, docs/notes/2026-11-30-scan-stages-inlined.md).
+    "scan._active_events", "scan._slip_events", "scan._contact_events",
+    "scan._contacts_before", "scan._crossed_at_event", "scan.find_event",
+    "segment.trial_step",
 }  # fmt: skip
 
 
