@@ -55,7 +55,8 @@ def _reproducers(group: str) -> list[Any]:
 
 #: Each reproducer with where it was found: issue 37's engine_range.py (ids "N-class-kind"),
 #: then runs the probe found inside the range when run over the old one (seed 1 at 1b73aaf) and
-#: over the new one (seeds 2, 4 and 5), ids "probe-N-class-kind".
+#: over the new one (seeds 2, 4 and 5, and 7 with custom faces only), ids
+#: "probe-N-class-kind".
 DATA = Path(__file__).with_name("range_reproducers.json")
 REFUSED = _reproducers("refused")
 INSIDE = _reproducers("inside")
