@@ -106,8 +106,8 @@ def njit_inline(fn: _F) -> _F:
     Also the stages of a step's scan and the trial step (``scan.find_event`` and what it
     calls once, ``segment.trial_step``): each runs once per step, and a call copies every
     field of the ``Segment`` and ``Work`` it is passed (about two hundred words); inlined,
-    the maps took about 0.92 of their time, bit for bit, and the engine about 35 % longer to
-    compile (docs/notes/2026-11-30-scan-stages-inlined.md).
+    the maps took about 0.92 of their time, bit for bit, and the engine's build 104 s of
+    CPU instead of 72 (docs/notes/2026-11-30-scan-stages-inlined.md).
     A caller must pass its arguments one by one (numba cannot inline a call with ``*args``).
     """
     return one_specialization_per_type(cast(_F, njit(**_NO_REFCOUNT_FLAGS, inline="always")(fn)))

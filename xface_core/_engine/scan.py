@@ -378,7 +378,8 @@ def _is_contact(seg: Segment, step: Step, i: int, hk: float, thr: float, window:
     a vertex 1.8e-3 D past their corner, held on the next edge, is only 1e-7 D behind this
     one's line (a custom face, H/D 0.0011, edges 5.5e-5 rad apart). Reported, it was no
     touching pair at the next choice, its threshold stayed, and the same contact fired at
-    the same state until the event budget (issue 37's probe, seed 7, run 2400).
+    the same state until the event budget (the range probe's seed 7, run 2400:
+    tests/core/range_reproducers.json).
     """
     pbk, pmk, _, _, _ = step_to(seg, step, hk)
     gk, uk, _, _, _, _, _, _, _ = pair_at(seg.held.pairs, i, pbk, pmk, seg.held.x0, step.y_m - hk)
