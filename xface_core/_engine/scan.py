@@ -291,7 +291,7 @@ def _contact_events(
         _, hk = locate(seg, search, tol, E_CONTACT, i, 0, thr[i])
         if best.kind != E_NONE and hk >= best.h:
             continue
-        if _is_contact(seg, step, i, hk, thr[i], TOUCH_WINDOW * opts.touch_tol):
+        if _is_contact(opts, seg, step, i, hk, thr[i]):
             best = Event(E_CONTACT, i, hk)
     return best, crossed, n_near
 
@@ -366,27 +366,27 @@ def _within_travel(
 
 
 @njit_no_refcount
-def _is_contact(seg: Segment, step: Step, i: int, hk: float, thr: float, window: float) -> bool:
+def _is_contact(opts: Options, seg: Segment, step: Step, i: int, hk: float, thr: float) -> bool:
     """Is the crossing of pair i's clipped gap located at ``hk`` this edge's contact? Only
     if the vertex crosses this edge's own line (not just a neighbour's, far from this edge's
     corner), and within the span, past a convex end at the corner, or just past a reflex end
     (a tip reaching the bottom of a notch).
 
-    Behind the line by more than ``window`` (D, the touching window: a pair no nearer is no
-    touching pair, :func:`~.pairs.touching_pairs`) and away from both corners, the vertex
-    crossed a neighbour's line, whatever the gap's size: where two edges are nearly in line
-    a vertex 1.8e-3 D past their corner, held on the next edge, is only 1e-7 D behind this
-    one's line (a custom face, H/D 0.0011, edges 5.5e-5 rad apart). Reported, it was no
-    touching pair at the next choice, its threshold stayed, and the same contact fired at
-    the same state until the event budget (the range probe's seed 7, run 2400:
-    tests/core/range_reproducers.json).
+    Behind the line by more than the touching window (``TOUCH_WINDOW`` touching tolerances:
+    a pair no nearer is no touching pair, :func:`~.pairs.touching_pairs`) and away from both
+    corners, the vertex crossed a neighbour's line, whatever the gap's size: where two edges
+    are nearly in line a vertex 1.8e-3 D past their corner, held on the next edge, is only
+    1e-7 D behind this one's line (a custom face, H/D 0.0011, edges 5.5e-5 rad apart).
+    Reported, it was no touching pair at the next choice, its threshold stayed, and the same
+    contact fired at the same state until the event budget (the range probe's seed 7, run
+    2400: tests/core/range_reproducers.json).
     """
     pbk, pmk, _, _, _ = step_to(seg, step, hk)
     gk, uk, _, _, _, _, _, _, _ = pair_at(seg.held.pairs, i, pbk, pmk, seg.held.x0, step.y_m - hk)
     if gk < thr - CORNER_REACH:
         return False
     row = seg.held.pairs[i]
-    if gk < thr - window and corner_distance(row, gk, uk) > CORNER_REACH:
+    if gk < thr - TOUCH_WINDOW * opts.touch_tol and corner_distance(row, gk, uk) > CORNER_REACH:
         return False
     return not past_reflex_end(row, uk)
 
@@ -589,7 +589,7 @@ def _contacts_before(
             _, hk = locate(seg, head, opts.event_tol, E_CONTACT, i, 0, thr[i])
             if hk >= earliest.h:
                 continue
-            if _is_contact(seg, step, i, hk, thr[i], TOUCH_WINDOW * opts.touch_tol):
+            if _is_contact(opts, seg, step, i, hk, thr[i]):
                 earliest = Event(E_CONTACT, i, hk)
         if earliest.h == best.h:
             return best
@@ -762,7 +762,7 @@ def _contacts_inside_step(
             _, hk = locate(seg, head, opts.event_tol, E_CONTACT, i, 0, thr[i])
             if best.kind != E_NONE and hk >= best.h:
                 break
-            if _is_contact(seg, step, i, hk, thr[i], TOUCH_WINDOW * opts.touch_tol):
+            if _is_contact(opts, seg, step, i, hk, thr[i]):
                 best = Event(E_CONTACT, i, hk)
             break
     return best
