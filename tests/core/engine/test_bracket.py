@@ -215,6 +215,35 @@ def test_the_zero_order_probe_finds_the_zero_of_a_power(order: float) -> None:
     )
 
 
+@pytest.mark.parametrize(("order", "steps"), [(1.0, 1), (0.5, 4), (2.0, 4), (3.0, 5), (4.95, 7)])
+def test_the_zero_order_probes_fit_settles_in_a_few_newton_steps(order: float, steps: int) -> None:
+    bends = []
+    probe = zero_order_probe.py_func
+    bend = probe.__globals__["_bend"]
+
+    def counted(*args: float) -> tuple[float, float]:
+        bends.append(args)
+        result: tuple[float, float] = bend(*args)
+        return result
+
+    probe.__globals__["_bend"] = counted
+    try:
+        ts = (0.9, 0.6, 0.4)
+        fs = [-3.0 * (t - 0.3) ** order for t in ts]
+        assert probe(ts[0], fs[0], ts[1], fs[1], ts[2], fs[2]) == pytest.approx(0.3, abs=1e-9)
+    finally:
+        probe.__globals__["_bend"] = bend
+    assert len(bends) <= steps
+
+
+@pytest.mark.parametrize("order", [0.3, 5.5, 8.0])
+def test_the_zero_order_probe_gives_up_outside_its_orders(order: float) -> None:
+    # No order in [MIN_ORDER, MAX_ORDER] puts the three on a line.
+    ts = (0.9, 0.6, 0.4)
+    fs = [-((t - 0.3) ** order) for t in ts]
+    assert math.isnan(zero_order_probe(ts[0], fs[0], ts[1], fs[1], ts[2], fs[2]))
+
+
 def test_the_zero_order_probe_needs_points_approaching_the_zero() -> None:
     assert math.isnan(zero_order_probe(0.9, -1.0, 0.6, -2.0, 0.4, -0.5))  # |f| grew
     assert math.isnan(zero_order_probe(0.9, -1.0, 0.95, -0.5, 0.4, -0.2))  # t turned back

@@ -15,6 +15,7 @@ from xface_core._engine.events import (
     START_RATE,
     Event,
     _hermite_guess,
+    _path_slope,
     angles_at,
     clear_step_memo,
     earlier,
@@ -285,8 +286,8 @@ def test_the_hermite_guess_is_the_interpolants_root_to_its_tolerance(incline, h)
     assert f_lo > 0.0 >= f_hi
     guess = _hermite_guess(seg, step, E_CONTACT, 1, 0, 0.0, nb, nm, f_lo, f_hi)
     assert abs(guess - _hermite_root(incline, seg, step, E_CONTACT, 1)) <= HERMITE_TOL * h
-    # The interpolant is off the exact path by its error (3e-7 D at h = 0.05 D), which the
-    # bracket locate() centres on the guess, 2e-5 of the step either side, covers.
+    # The interpolant is off the exact path by its error (3e-7 D at h = 0.05 D): locate()
+    # checks the guess with a real step and moves it by Newton's method.
     assert guess == pytest.approx(incline.s_touch, abs=1e-6)
 
 
@@ -299,3 +300,27 @@ def test_the_hermite_guess_of_a_linear_event_is_its_zero(incline) -> None:
     f_hi = step.y_m - step.h - seg.y_floor
     guess = _hermite_guess(seg, step, E_BELOW_SEAT, -1, 0, 0.0, nb, nm, 0.0123, f_hi)
     assert guess == pytest.approx(0.0123, abs=HERMITE_TOL * step.h)
+
+
+@pytest.mark.parametrize("h", [0.02, 0.05])
+def test_a_smooth_event_is_bracketed_with_three_integrations(incline, h) -> None:
+    # One at the interpolant's root, then two half a tolerance either side of the Newton
+    # estimate from there; the step's end is the fourth remembered step.
+    step, seg = incline.step(h), incline.segment()
+    clear_step_memo(seg.step_memo)
+    lo, hi = locate(seg, step, EVENT_TOL, E_CONTACT, 1, 0, 0.0)
+    _assert_brackets(lo, hi, incline.s_touch)
+    assert seg.step_memo[0, 0] == 4
+
+
+def test_the_path_slope_is_the_closed_form_paths(incline) -> None:
+    step, seg = incline.step(0.05), incline.segment()
+    t, d = 0.01, 1e-4
+
+    def gap(s: float) -> float:
+        pm = incline.phi_m_at(s)
+        return event_value(seg, E_CONTACT, 1, 0, 0.0, 0.0, pm, step.y_m - s)
+
+    exact = (gap(t + d) - gap(t - d)) / (2.0 * d)  # a smooth closed form: O(d^2)
+    slope = _path_slope(seg, step, E_CONTACT, 1, 0, 0.0, t)
+    assert slope == pytest.approx(exact, rel=1e-6)
