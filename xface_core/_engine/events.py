@@ -53,6 +53,10 @@ NO_EVENT = Event(E_NONE, -1, 0.0)
 #: How closely (a fraction of the step) the root on the step's Hermite interpolant is
 #: bracketed (:func:`_hermite_guess`).
 HERMITE_TOL = 1e-13
+#: How far (in event tolerances) past and short of its Newton estimate an event's bracket
+#: is probed (:func:`locate`): under a half, so that the two ends are within a tolerance,
+#: round-off included.
+CLOSING = 0.45
 
 
 @njit_no_refcount
@@ -411,6 +415,21 @@ def _path_slope(
 
 
 @njit_no_refcount
+def _value_back(
+    seg: Segment, step: Step, kind: int, idx: int, slot: int, thr: float, t: float,
+    back: float,
+) -> float:  # fmt: skip
+    """The event function a descent ``back`` (D, within a tolerance) before the state a
+    descent ``t`` into the step, moved back along the rate there: a bracket's end before
+    an event next to its end after it without another integration. Off the integrated
+    path by about ``back`` times the step's error per length, 1e-20 D at a tolerance."""
+    pb, pm, _, _, _ = step_to(seg, step, t)
+    ym = step.y_m - t
+    vb, vm, _, _ = velocity(seg.held, pb, pm, ym)
+    return event_value(seg, kind, idx, slot, thr, pb - back * vb, pm - back * vm, ym + back)
+
+
+@njit_no_refcount
 def locate(
     seg: Segment, step: Step, event_tol: float, kind: int, idx: int, slot: int, thr: float
 ) -> tuple[float, float]:
@@ -422,7 +441,8 @@ def locate(
     zero to round-off (``FLAT_GAP``) at both ends is located at the start.
 
     The event function is evaluated on the state after one integration step of the trial
-    length from the same start, so the located point lies on the integrated path. An event
+    length from the same start, so the located point (``hi``) lies on the integrated path;
+    ``lo`` may be that state moved back along its rate (:func:`_value_back`). An event
     that has already happened at the step's start (its function is not positive there) is
     located at the start: ``(0.0, 0.0)``.
     """
@@ -446,11 +466,13 @@ def locate(
         # round-off's. No crossing can be bracketed; it is at the start as well as anywhere.
         return 0.0, 0.0
     # Predictor: the root on the step's Hermite interpolant, checked with one real step
-    # there and moved by Newton's method (the slope along the rate there), then probed
-    # just under half a tolerance past that estimate on its far side and on its near side
-    # (the two then less than a tolerance apart, round-off included): three integrations
-    # close a smooth event's bracket. A probe on the wrong side (a bend the
-    # interpolant missed, a kink) only narrows the bracket, and the search goes on below.
+    # there and moved by Newton's method (the slope along the rate there). The bracket's
+    # end after the zero is probed just under half a tolerance past that estimate, and the
+    # end before it just under half a tolerance short of it, on the state after the zero
+    # moved back along its rate (:func:`_value_back`; off the integrated path by about
+    # 1e-20 D): two integrations close a smooth event's bracket. A probe on the wrong
+    # side (a bend the interpolant missed, a kink) only narrows the bracket, and the search
+    # goes on below with real steps.
     bracket = start_bracket(lo, f_lo, hi, f_hi)
     if math.isfinite(f_hi) and f_hi <= 0.0:
         guess = _hermite_guess(seg, step, kind, idx, slot, thr, nb, nm, f_lo, f_hi)
@@ -460,15 +482,18 @@ def locate(
             slope = _path_slope(seg, step, kind, idx, slot, thr, guess)
             if math.isfinite(f_guess) and slope < 0.0:
                 estimate = guess - f_guess / slope
-                far = 1.0 if f_guess > 0.0 else -1.0  # the zero's side away from the guess
-                for side in (far, -far):
-                    t = estimate + side * 0.45 * event_tol
-                    if bracket[HI] - bracket[LO] <= event_tol or not (
-                        bracket[LO] < t < bracket[HI]
+                t_after, t_before = estimate + CLOSING * event_tol, estimate - CLOSING * event_tol
+                if bracket[LO] < t_after < bracket[HI]:
+                    f_after = event_after(seg, step, kind, idx, slot, thr, t_after)
+                    bracket = move_bracket(bracket, t_after, f_after)
+                    if (
+                        f_after <= 0.0
+                        and bracket[HI] - bracket[LO] > event_tol
+                        and bracket[LO] < t_before
                     ):
-                        break
-                    f_t = event_after(seg, step, kind, idx, slot, thr, t)
-                    bracket = move_bracket(bracket, t, f_t)
+                        back = t_after - t_before
+                        f_before = _value_back(seg, step, kind, idx, slot, thr, t_after, back)
+                        bracket = move_bracket(bracket, t_before, f_before)
     for _ in range(100):
         if bracket[HI] - bracket[LO] <= event_tol:
             break

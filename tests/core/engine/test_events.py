@@ -303,14 +303,17 @@ def test_the_hermite_guess_of_a_linear_event_is_its_zero(incline) -> None:
 
 
 @pytest.mark.parametrize("h", [0.02, 0.05])
-def test_a_smooth_event_is_bracketed_with_three_integrations(incline, h) -> None:
-    # One at the interpolant's root, then two half a tolerance either side of the Newton
-    # estimate from there; the step's end is the fourth remembered step.
+def test_a_smooth_event_is_bracketed_with_two_integrations(incline, h) -> None:
+    # One at the interpolant's root, one just past the Newton estimate from there (the end
+    # before it is that state moved back along its rate); the step's end is the third
+    # remembered step.
     step, seg = incline.step(h), incline.segment()
     clear_step_memo(seg.step_memo)
     lo, hi = locate(seg, step, EVENT_TOL, E_CONTACT, 1, 0, 0.0)
     _assert_brackets(lo, hi, incline.s_touch)
-    assert seg.step_memo[0, 0] == 4
+    assert seg.step_memo[0, 0] == 3
+    # The end before the event is before it on the integrated path too.
+    assert event_value(seg, E_CONTACT, 1, 0, 0.0, *step_to(seg, step, lo)[:2], step.y_m - lo) > 0
 
 
 def test_the_path_slope_is_the_closed_form_paths(incline) -> None:
