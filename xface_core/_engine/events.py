@@ -394,6 +394,17 @@ def _hermite_guess(
     return 0.5 * (a_lo + a_hi) * hi
 
 
+@njit_inline
+def _state_and_rate(seg: Segment, step: Step, t: float) -> tuple[float, float, float, float, float]:
+    """The integrated state a descent ``t`` (D) into the step and the rate there:
+    ``(phi_B, phi_M, y_M, v_B, v_M)`` (rad, D, rad per D), for event functions taken a
+    short move along the rate from it (:func:`_path_slope`, :func:`_value_back`)."""
+    pb, pm, _, _, _ = step_to(seg, step, t)
+    ym = step.y_m - t
+    vb, vm, _, _ = velocity(seg.held, pb, pm, ym)
+    return pb, pm, ym, vb, vm
+
+
 @njit_no_refcount
 def _path_slope(
     seg: Segment, step: Step, kind: int, idx: int, slot: int, thr: float, t: float
@@ -405,9 +416,7 @@ def _path_slope(
     integrated path's own slope differs from the rate by its error per step, about 1e-8
     of it. (The step's interpolant was tried: its slope, off by 1e-5 to 0.25 of it, threw
     the estimate outside the tolerance in half the searches.)"""
-    pb, pm, _, _, _ = step_to(seg, step, t)
-    ym = step.y_m - t
-    vb, vm, _, _ = velocity(seg.held, pb, pm, ym)
+    pb, pm, ym, vb, vm = _state_and_rate(seg, step, t)
     eta = 1e-6 * step.h
     f_before = event_value(seg, kind, idx, slot, thr, pb - eta * vb, pm - eta * vm, ym + eta)
     f_after = event_value(seg, kind, idx, slot, thr, pb + eta * vb, pm + eta * vm, ym - eta)
@@ -423,9 +432,7 @@ def _value_back(
     descent ``t`` into the step, moved back along the rate there: a bracket's end before
     an event next to its end after it without another integration. Off the integrated
     path by about ``back`` times the step's error per length, 1e-20 D at a tolerance."""
-    pb, pm, _, _, _ = step_to(seg, step, t)
-    ym = step.y_m - t
-    vb, vm, _, _ = velocity(seg.held, pb, pm, ym)
+    pb, pm, ym, vb, vm = _state_and_rate(seg, step, t)
     return event_value(seg, kind, idx, slot, thr, pb - back * vb, pm - back * vm, ym + back)
 
 

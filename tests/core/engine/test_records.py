@@ -173,7 +173,7 @@ INLINED = {
     # for bit, docs/notes/2026-11-29-side-by-side-memo-look-ups-inlined.md).
     "events._remembers", "events._remembered_velocity", "events.angles_at",
     "events.end_velocity", "events.has_dense", "events.quarter_state",
-    "events.start_velocity", "events.step_to",
+    "events.start_velocity", "events.step_to", "events._state_and_rate",
 } | {
     # The stages of a step's scan and the trial step, each called once per step: a call
     # passes Segment and Work (about two hundred words) by value (maps about 0.92 of their
