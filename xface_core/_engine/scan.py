@@ -102,6 +102,8 @@ def _active_events(
             # line up (the contacts wedge) while the rate stays finite: the path goes on,
             # only this set of slipping contacts cannot carry it; choose again (a release).
             wedge = held.mu > 0.0 and max(abs(wb), abs(wm)) < 1e3 * max(1.0, abs(sb), abs(sm))
+            if pole:
+                best = _slip_before_pole(opts, seg, step, lo, best)
             if pole and not wedge:
                 # lambda changed sign through a pole, not through zero: the contact path
                 # turns back here and cannot descend further.
@@ -145,6 +147,42 @@ def _release_before_pole(
                 head = Step(step.phi_b, step.phi_m, step.y_m, t)
                 _, hj = locate(seg, head, opts.event_tol, E_RELEASE, held.act[j], j, 0.0)
                 return earlier(Event(E_RELEASE, held.act[j], hj), best)
+    return best
+
+
+@njit_no_refcount
+def _slip_before_pole(opts: Options, seg: Segment, step: Step, t_pole: float, best: Event) -> Event:
+    """A friction state that changed before the pole of a contact force found a descent
+    ``t_pole`` (D) into the step (the bracket's end before it), or ``best``: found before
+    the release or the turning point there.
+
+    The rates diverge at the pole, and so does every slip margin (:func:`~.motion.slip_margin`);
+    one that crossed zero before it can be positive again at the step's end, past the pole,
+    where :func:`_slip_events` looks. Its sign is taken at a quarter, half and three
+    quarters of the way to the pole and just before it, on the integrated path; the first
+    negative one closes the search for its zero. (X 2.1225/0.0721 at damping ratio
+    1.29e-3 and mu 0.42 from x0 = D, theta0 = -pi/6: the slide's margin fell through zero
+    1.6e-9 D into its step and ran to -2800 at the pole 0.3e-9 D later, and to +3.7 past
+    it. Found as a turning point (its stages' cos and sin taken otherwise) the run jammed,
+    and as a release the slip was passed over; with the slip it chooses again and seats as
+    its mirror run does, docs/notes/2026-11-30-event-brackets.md.)"""
+    held = seg.held
+    for k in range(held.n_active):
+        # A state contradicted at the step's start already is not this search's: located
+        # there, it would be chosen again at the same state, over and over.
+        if held.slip[k] == FREE or not (
+            slip_margin(held, k, step.phi_b, step.phi_m, step.y_m) > 0.0
+        ):
+            continue
+        for q in range(1, 5):
+            t = 0.25 * q * t_pole
+            pb, pm, _, _, ok = step_to(seg, step, t)
+            if not ok:
+                break
+            if slip_margin(held, k, pb, pm, step.y_m - t) < 0.0:
+                head = Step(step.phi_b, step.phi_m, step.y_m, t)
+                _, hk = locate(seg, head, opts.event_tol, E_SLIP, held.act[k], k, 0.0)
+                return earlier(Event(E_SLIP, held.act[k], hk), best)
     return best
 
 

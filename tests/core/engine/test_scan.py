@@ -9,6 +9,7 @@ import pytest
 
 import xface_core as xf
 from xface_core._engine.events import NO_EVENT, step_to
+from xface_core._engine.motion import slip_margin
 from xface_core._engine.pairs import (
     COL_LENGTH_AFTER,
     PAIR_COLUMNS,
@@ -24,8 +25,10 @@ from xface_core._engine.records import (
     E_BELOW_SEAT,
     E_CONTACT,
     E_NONE,
+    E_SLIP,
     FINE_SAMPLES,
     FREE,
+    RUN_DTYPE,
     STEP_MEMO_SLOTS,
     STEP_MEMO_WIDTH,
     Contacts,
@@ -33,6 +36,7 @@ from xface_core._engine.records import (
     Step,
     Work,
     make_options,
+    new_work,
 )
 from xface_core._engine.scan import (
     _contact_events,
@@ -47,6 +51,7 @@ from xface_core._engine.scan import (
     find_event,
     reach_budget,
 )
+from xface_core._engine.segment import begin_segment
 from xface_core.physics import Physics
 from xface_core.runner import engine_model
 
@@ -362,3 +367,29 @@ def test_a_release_before_a_pole_in_the_same_step_comes_first(sign: float) -> No
     reference = xf.predict(design, x0, theta0, settings=tight)
     assert p.outcome == reference.outcome == xf.Outcome.SEATED
     assert p.phi_b == pytest.approx(sign * 0.3873950, abs=1e-6)
+
+
+def test_a_slip_before_a_pole_in_the_same_step_comes_first() -> None:
+    # X 2.1225/0.0721 at damping ratio 1.29e-3 and mu 0.42, from x0 = D, theta0 = -pi/6: on
+    # the slide of contact 38 (slipping backwards), a step of 6.03e-9 D from this state
+    # (where a run took it) crosses the slip's zero 1.59e-9 D in and the pole of the force
+    # 0.3e-9 D later; past the pole the slip margin is positive again (+3.7), so the step's
+    # end does not show it. The slip comes first, not the force's change of sign.
+    design = xf.x_face(2.122466788111405, 0.07211328716946366)
+    physics = Physics(damping_ratio=0.0012909326288174934, friction=0.42177297426967)
+    model, opts = engine_model(design), make_options(physics)
+    runs = np.zeros(1, dtype=RUN_DTYPE)
+    run = runs[0]
+    run["phi_b"], run["phi_m"] = -0.4403023074717209, -0.45575232748550115
+    run["y_m"], run["x0"], run["n_active"], run["had_contact"] = 2.3617886553490792, 1.0, 1, True
+    work = new_work(model, opts)
+    work.act[0], work.slip[0] = 38, -1
+    path, pairs = np.zeros((4, 4)), np.full((4, 4), -1, dtype=np.int64)
+    seg = begin_segment(model, opts, run, work, path, pairs)
+    step = Step(float(run["phi_b"]), float(run["phi_m"]), float(run["y_m"]), 6.030854484182746e-09)
+    nb, nm, _, _, ok = step_to(seg, step, step.h)
+    assert ok
+    assert slip_margin(seg.held, 0, nb, nm, step.y_m - step.h) > 0.0
+    ev = find_event(opts, seg, step, work, nb, nm)
+    assert ev.kind == E_SLIP
+    assert ev.h == pytest.approx(1.59e-9, abs=0.02e-9)
