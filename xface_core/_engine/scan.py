@@ -53,6 +53,7 @@ from .records import (
     SLEEP_SLACK,
     TOUCH_WINDOW,
     U_TOL,
+    Contacts,
     FloatArray,
     Options,
     Segment,
@@ -103,13 +104,13 @@ def _active_events(
             # only this set of slipping contacts cannot carry it; choose again (a release).
             wedge = held.mu > 0.0 and max(abs(wb), abs(wm)) < 1e3 * max(1.0, abs(sb), abs(sm))
             if pole:
-                best = _slip_before_pole(opts, seg, step, lo, best)
+                best = _event_before_pole(opts, seg, step, lo, E_SLIP, -1, 4, best)
             if pole and not wedge:
                 # lambda changed sign through a pole, not through zero: the contact path
                 # turns back here and cannot descend further.
                 kind = E_TURN
                 hk = lo
-                best = _release_before_pole(opts, seg, step, k, lo, best)
+                best = _event_before_pole(opts, seg, step, lo, E_RELEASE, k, 3, best)
             best = earlier(Event(kind, pair, hk), best)
         ecb, esb, ecm, esm = end
         _, u, _, _, _, _, _, _, _ = eval_pair(held.pairs[pair], ecb, esb, ecm, esm, held.x0, y1)
@@ -120,69 +121,63 @@ def _active_events(
 
 
 @njit_no_refcount
-def _release_before_pole(
-    opts: Options, seg: Segment, step: Step, k: int, t_pole: float, best: Event
-) -> Event:
-    """The release of another held contact before the pole of contact ``k``'s force found a
-    descent ``t_pole`` (D) into the step, or ``best``.
-
-    Through the pole every force changes sign, so another contact whose force crossed zero
-    before it (a release: the two-contact motion would pull it) is positive again at the
-    step's end, and the end's check does not see it. Its force is sampled at a quarter, half
-    and three quarters of the way to the pole, on the integrated path; the first negative
-    sample closes the search for its zero. (X 0.25/1 at x0 = -0.85 D, theta0 = 0.7069 crossed
-    a release 0.3 of the way into its step and ended at the pole as a jam; the independent
-    engine seats it, and so did xface with the other first steps tried, 1e-4 to 0.05 D.)"""
-    held = seg.held
-    for j in range(held.n_active):
-        if j == k:
-            continue
-        for q in range(1, 4):
-            t = 0.25 * q * t_pole
-            pb, pm, _, _, ok = step_to(seg, step, t)
-            if not ok:
-                break
-            _, _, l1, l2 = velocity(held, pb, pm, step.y_m - t)
-            if (l1 if j == 0 else l2) < 0.0:
-                head = Step(step.phi_b, step.phi_m, step.y_m, t)
-                _, hj = locate(seg, head, opts.event_tol, E_RELEASE, held.act[j], j, 0.0)
-                return earlier(Event(E_RELEASE, held.act[j], hj), best)
-    return best
+def _value_before_pole(held: Contacts, kind: int, k: int, pb: float, pm: float, y: float) -> float:
+    """What :func:`_event_before_pole` samples for held contact ``k`` at the state ``(pb, pm,
+    y)``: its force for a release (the raw multiplier, no slack: a pole's search wants its
+    sign), its slip margin (:func:`~.motion.slip_margin`) for a change of friction state."""
+    if kind == E_SLIP:
+        return slip_margin(held, k, pb, pm, y)
+    _, _, l1, l2 = velocity(held, pb, pm, y)
+    return l1 if k == 0 else l2
 
 
 @njit_no_refcount
-def _slip_before_pole(opts: Options, seg: Segment, step: Step, t_pole: float, best: Event) -> Event:
-    """A friction state that changed before the pole of a contact force found a descent
-    ``t_pole`` (D) into the step (the bracket's end before it), or ``best``: found before
-    the release or the turning point there.
+def _event_before_pole(
+    opts: Options, seg: Segment, step: Step, t_pole: float, kind: int, pole_slot: int,
+    samples: int, best: Event,
+) -> Event:  # fmt: skip
+    """An event of ``kind`` (E_RELEASE or E_SLIP) of a held contact other than
+    ``pole_slot`` that came before the pole of a contact force found a descent ``t_pole``
+    (D) into the step (the bracket's end before it), or ``best``: found before the release
+    or the turning point there.
 
-    The rates diverge at the pole, and so does every slip margin (:func:`~.motion.slip_margin`);
-    one that crossed zero before it can be positive again at the step's end, past the pole,
-    where :func:`_slip_events` looks. Its sign is taken at a quarter, half and three
-    quarters of the way to the pole and just before it, on the integrated path; the first
-    negative one closes the search for its zero. (X 2.1225/0.0721 at damping ratio
-    1.29e-3 and mu 0.42 from x0 = D, theta0 = -pi/6: the slide's margin fell through zero
-    1.6e-9 D into its step and ran to -2800 at the pole 0.3e-9 D later, and to +3.7 past
-    it. Found as a turning point (its stages' cos and sin taken otherwise) the run jammed,
-    and as a release the slip was passed over; with the slip it chooses again and seats as
-    its mirror run does, docs/notes/2026-11-30-event-brackets.md.)"""
+    The rates diverge at the pole and every force and slip margin changes sign through it,
+    so a value that crossed zero before it can be positive again at the step's end, where
+    :func:`_active_events` and :func:`_slip_events` look. It is sampled at ``samples``
+    quarters of the way to the pole on the integrated path (three for a release; four for
+    a slip, the last just before the pole, where a margin runs to its pole fastest); the
+    first negative sample closes the search for its zero.
+
+    - A release: X 0.25/1 at x0 = -0.85 D, theta0 = 0.7069 crossed a release 0.3 of the
+      way into its step and ended at the pole as a jam; the independent engine seats it,
+      and so did xface with the other first steps tried, 1e-4 to 0.05 D.
+    - A slip: X 2.1225/0.0721 at damping ratio 1.29e-3 and mu 0.42 from x0 = D,
+      theta0 = -pi/6: the slide's margin fell through zero 1.6e-9 D into its step and ran
+      to -2800 at the pole 0.3e-9 D later, and to +3.7 past it. Found as a turning point
+      (its stages' cos and sin taken otherwise) the run jammed, and as a release the slip
+      was passed over; with the slip it chooses again and seats as its mirror run does
+      (docs/notes/2026-11-30-event-brackets.md). A friction state contradicted at the
+      step's start already is not this search's: located there, it would be chosen again
+      at the same state, over and over.
+    """
     held = seg.held
     for k in range(held.n_active):
-        # A state contradicted at the step's start already is not this search's: located
-        # there, it would be chosen again at the same state, over and over.
-        if held.slip[k] == FREE or not (
-            slip_margin(held, k, step.phi_b, step.phi_m, step.y_m) > 0.0
+        if k == pole_slot:
+            continue
+        if kind == E_SLIP and (
+            held.slip[k] == FREE
+            or not (slip_margin(held, k, step.phi_b, step.phi_m, step.y_m) > 0.0)
         ):
             continue
-        for q in range(1, 5):
+        for q in range(1, samples + 1):
             t = 0.25 * q * t_pole
             pb, pm, _, _, ok = step_to(seg, step, t)
             if not ok:
                 break
-            if slip_margin(held, k, pb, pm, step.y_m - t) < 0.0:
+            if _value_before_pole(held, kind, k, pb, pm, step.y_m - t) < 0.0:
                 head = Step(step.phi_b, step.phi_m, step.y_m, t)
-                _, hk = locate(seg, head, opts.event_tol, E_SLIP, held.act[k], k, 0.0)
-                return earlier(Event(E_SLIP, held.act[k], hk), best)
+                _, hk = locate(seg, head, opts.event_tol, kind, held.act[k], k, 0.0)
+                return earlier(Event(kind, held.act[k], hk), best)
     return best
 
 
