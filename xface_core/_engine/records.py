@@ -374,6 +374,11 @@ class Work(NamedTuple):
     budgets in ``sleep`` still hold at the run's state, so the interval's start and the
     segment's evaluate only the pairs in reach (:func:`~.interval.begin_interval`,
     :func:`~.segment.start_segment`)."""
+    corner_memo: FloatArray
+    """(n_pairs, 4) per pair: whether its vertex and the start corner of its edge crossed
+    like an X (1.0, else 0.0: :func:`~.pairs.wedges_cross`) at the state (phi_B, phi_M,
+    y_M) in the other three columns, NaN for none yet. The state at the end of a scanned
+    step is the next step's start, bit for bit (:func:`~.scan._crossing`)."""
 
 
 class Contacts(NamedTuple):
@@ -476,6 +481,7 @@ def new_work(model: Model, opts: Options) -> Work:
         np.empty((model.moving_edges.shape[0], 4)),
         np.empty(n, dtype=np.int64),  # written by each scan before it is read
         np.zeros(1, dtype=np.int64),
+        np.empty((n, 4)),
     )
     reset_work(work)
     return work
@@ -497,3 +503,4 @@ def reset_work(work: Work) -> None:
     work.sleep[:, 1] = -1.0  # every pair in reach
     work.sleep_holds[0] = 0
     work.dense[:] = 0.0
+    work.corner_memo[:] = math.nan

@@ -219,7 +219,7 @@ def _contact_events(
     y1 = step.y_m - step.h
     # Arrays taken out of the records once: numba counts references on every attribute read.
     thr, g_prev, u_prev = work.thr, work.g_prev, work.u_prev
-    g_next, u_next, rays, near = work.g_next, work.u_next, work.rays, work.near
+    g_next, u_next, near = work.g_next, work.u_next, work.near
     n_near = 0
     # The turn between the ends, as _contacts_inside_step bounds a vertex's travel with it.
     turn_ends = abs(nb - step.phi_b) + abs(nm - step.phi_m)
@@ -259,8 +259,8 @@ def _contact_events(
         u_next[i] = u1
         sleep[i, 0] = reach_budget(row, g1, u1)
         if not crossed:
-            crossed = _crossing(opts, rays, row, g1, u1, (cb1, sb1, cm1, sm1, y1),
-                                (cb0, sb0, cm0, sm0, step.y_m), x0)  # fmt: skip
+            crossed = _crossing(opts, work, i, row, g1, u1, x0, (cb1, sb1, cm1, sm1, y1, nb, nm),
+                                (cb0, sb0, cm0, sm0, step.y_m, step.phi_b, step.phi_m))  # fmt: skip
         if (n_act > 0 and act[0] == i) or (n_act > 1 and act[1] == i):
             continue
         if _within_travel(row, g_prev[i], u_prev[i], g1, u1, _travel(row, step.h, turn_ends)):
@@ -804,17 +804,19 @@ def _contacts_inside_step(
 @njit_inline
 def _crossing(
     opts: Options,
-    rays: FloatArray,
+    work: Work,
+    i: int,
     row: FloatArray,
     g: float,
     u: float,
-    now: tuple[float, float, float, float, float],
-    start: tuple[float, float, float, float, float],
     x0: float,
+    now: tuple[float, float, float, float, float, float, float],
+    start: tuple[float, float, float, float, float, float, float],
 ) -> bool:
-    """Do the pair's vertex and the start corner of its edge cross like an X in the state
-    ``now`` (cos and sin of phi_B and phi_M, and y_M; the pair's gap ``g`` and edge parameter
-    ``u`` there), though they did not at the ``start`` of the step?
+    """Do pair i's vertex and the start corner of its edge (``row``) cross like an X in the
+    state ``now`` (cos and sin of phi_B and phi_M, y_M, then phi_B and phi_M; the pair's
+    gap ``g`` and edge parameter ``u`` there), though they did not at the ``start`` of the
+    step?
 
     :func:`~.pairs.wedges_cross`: no vertex is inside the other part then, so no contact
     function shows it; the vertex that went in and out again on the way did, inside the
@@ -822,15 +824,31 @@ def _crossing(
     |g| <= half the edge's length: both screen the pair first, and so does the vertex's
     distance from the corner, ``hypot(u * length, g)`` (to 2 % of it: its test takes the
     distance from the world positions, equal to round-off).
+
+    The answer at ``now`` is remembered with its state (``Work.corner_memo``); the next
+    step starts there, and its start's answer is taken from the memo instead of computed
+    again. A pair of corners that stays crossed (the wedges stand for the parts only near
+    the corner, and a short neighbouring edge leaves one inside the other's wedge) was
+    tested at both ends of every step: about 18 of the 84 tests a cell of X 1/1 made
+    (docs/notes/2026-11-30-where-a-cell-spends-its-cycles.md).
     """
     length2 = (row[5] - row[3]) ** 2 + (row[6] - row[4]) ** 2
     if abs(u) > 0.5 or g * g > 0.25 * length2 or u * u * length2 + g * g > 0.26 * length2:
         return False
     margin = TOUCH_WINDOW * opts.touch_tol
-    cb, sb, cm, sm, y = now
-    if not wedges_cross(row, cb, sb, cm, sm, x0, y, margin, rays):
+    memo, rays = work.corner_memo[i], work.rays
+    cb, sb, cm, sm, y, pb, pm = start
+    # Read before the answer at ``now`` takes the memo's place.
+    start_known = memo[1] == pb and memo[2] == pm and memo[3] == y
+    start_crossed = memo[0] == 1.0
+    cb, sb, cm, sm, y, pb, pm = now
+    crossed_now = wedges_cross(row, cb, sb, cm, sm, x0, y, margin, rays)
+    memo[0], memo[1], memo[2], memo[3] = 1.0 if crossed_now else 0.0, pb, pm, y
+    if not crossed_now:
         return False
-    cb, sb, cm, sm, y = start
+    if start_known:
+        return not start_crossed
+    cb, sb, cm, sm, y, _, _ = start
     return not wedges_cross(row, cb, sb, cm, sm, x0, y, margin, rays)
 
 
@@ -842,9 +860,8 @@ def _crossed_at_event(opts: Options, seg: Segment, step: Step, work: Work, nb: f
     eb, em, _, _, _ = step_to(seg, step, best.h)
     ey = step.y_m - best.h
     pairs, x0, u_prev, u_next = seg.held.pairs, seg.held.x0, work.u_prev, work.u_next
-    rays = work.rays
-    now = (math.cos(eb), math.sin(eb), math.cos(em), math.sin(em), ey)
-    at_start = (start[0], start[1], start[2], start[3], step.y_m)
+    now = (math.cos(eb), math.sin(eb), math.cos(em), math.sin(em), ey, eb, em)
+    at_start = (start[0], start[1], start[2], start[3], step.y_m, step.phi_b, step.phi_m)
     turn = abs(nb - step.phi_b) + abs(nm - step.phi_m)
     for i in range(pairs.shape[0]):
         if asleep(work, i):
@@ -857,7 +874,7 @@ def _crossed_at_event(opts: Options, seg: Segment, step: Step, work: Work, nb: f
         if min(abs(u_prev[i]), abs(u_next[i])) - 0.5 > travel / row[COL_EDGE_LENGTH]:
             continue
         g, u, _, _, _, _, _, _, _ = eval_pair(row, now[0], now[1], now[2], now[3], x0, ey)
-        if _crossing(opts, rays, row, g, u, now, at_start, x0):
+        if _crossing(opts, work, i, row, g, u, x0, now, at_start):
             return True
     return False
 

@@ -40,6 +40,7 @@ from xface_core._engine.records import (
 )
 from xface_core._engine.scan import (
     _contact_events,
+    _crossing,
     _far_behind,
     _far_outside_or_behind,
     _gap_bounds,
@@ -75,7 +76,7 @@ def _work(table: np.ndarray, pb: float, pm: float, x0: float, ym: float) -> Work
         np.column_stack([np.zeros(n), np.full(n, -1.0), np.zeros(n)]), np.zeros((2, DENSE_WIDTH)),
         np.empty((3, n + 2), dtype=np.int64), np.full(4, -1, dtype=np.int64),
         np.empty((0, 4)), np.empty((0, 4)), np.empty(n, dtype=np.int64),
-        np.zeros(1, dtype=np.int64),
+        np.zeros(1, dtype=np.int64), np.full((n, 4), np.nan),
     )  # fmt: skip
 
 
@@ -393,3 +394,72 @@ def test_a_slip_before_a_pole_in_the_same_step_comes_first() -> None:
     ev = find_event(opts, seg, step, work, nb, nm)
     assert ev.kind == E_SLIP
     assert ev.h == pytest.approx(1.59e-9, abs=0.02e-9)
+
+
+# Two corners crossing like an X (tests/core/engine/test_corners.py): the base block's
+# top-right corner K and the moving square's corner V (body (-0.5, 0)), the moving pivot at
+# one x0, as in a run. A state: phi_M (degrees) and the height of V (D).
+SQUARE = [(-0.5, -1.0), (0.5, -1.0), (0.5, 0.0), (-0.5, 0.0)]
+SQUARES_MODEL = engine_model(xf.custom_face([SQUARE], [SQUARE], mated_distance=2.0))
+V_ON_TOP = next(
+    i
+    for i, row in enumerate(SQUARES_MODEL.pairs)
+    if row[0] == 0 and tuple(row[1:5]) == (-0.5, 0.0, 0.5, 0.0)
+)
+X0_CORNERS = 0.6 - 0.5 * math.cos(math.radians(70.0))
+#: States at which V and K cross (V's edge at 160 degrees through the base's wall) ...
+CORNERS_CROSSED = [(70.0, -0.05), (70.0, 0.05), (0.0, -0.05)]
+#: ... and at which they do not: the last one too far from K to be tested (|u| > 1/2).
+CORNERS_APART = [(0.0, 0.05), (-90.0, 0.05), (150.0, -0.05)]
+
+
+def _corner_state(state: tuple[float, float]) -> tuple[float, ...]:
+    """cos and sin of phi_B and phi_M, y_M, then phi_B and phi_M (rad) at ``state``."""
+    phi_m = math.radians(state[0])
+    y_m = state[1] - 0.5 * math.sin(phi_m)
+    return (1.0, 0.0, math.cos(phi_m), math.sin(phi_m), y_m, 0.0, phi_m)
+
+
+def _corners_crossed(
+    now_state: tuple[float, float], start_state: tuple[float, float], memo: np.ndarray
+) -> bool:
+    """Scan's corner test of the pair V_ON_TOP with ``memo`` as its row of the memo."""
+    now, start = _corner_state(now_state), _corner_state(start_state)
+    work = new_work(SQUARES_MODEL, OPTS)
+    work.corner_memo[V_ON_TOP] = memo
+    row = SQUARES_MODEL.pairs[V_ON_TOP]
+    g, u, *_ = eval_pair(row, *now[:4], X0_CORNERS, now[4])
+    crossed = _crossing(OPTS, work, V_ON_TOP, row, g, u, X0_CORNERS, now, start)
+    memo[:] = work.corner_memo[V_ON_TOP]
+    return bool(crossed)
+
+
+@pytest.mark.parametrize("start_state", CORNERS_CROSSED + CORNERS_APART)
+@pytest.mark.parametrize("now_state", CORNERS_CROSSED + CORNERS_APART)
+def test_corners_crossing_answer_the_same_with_the_start_remembered(
+    now_state: tuple[float, float], start_state: tuple[float, float]
+) -> None:
+    fresh = _corners_crossed(now_state, start_state, np.full(4, np.nan))
+    memo = np.full(4, np.nan)
+    _corners_crossed(start_state, (0.0, 1.0), memo)  # the step before ended at this start
+    assert _corners_crossed(now_state, start_state, memo) == fresh
+
+
+@pytest.mark.parametrize("state", CORNERS_CROSSED + CORNERS_APART[:2])
+def test_the_corner_memo_holds_the_answer_at_the_state_tested(state: tuple[float, float]) -> None:
+    memo = np.full(4, np.nan)
+    _corners_crossed(state, (0.0, 1.0), memo)
+    _, _, _, _, y_m, pb, pm = _corner_state(state)
+    assert memo.tolist() == [1.0 if state in CORNERS_CROSSED else 0.0, pb, pm, y_m]
+
+
+def test_a_pair_screened_out_leaves_the_corner_memo_alone() -> None:
+    memo = np.full(4, np.nan)
+    _corners_crossed(CORNERS_APART[2], (0.0, 1.0), memo)
+    assert np.isnan(memo).all()
+
+
+def test_corners_cross_in_a_step_only_from_apart_at_its_start() -> None:
+    memo = np.full(4, np.nan)
+    assert _corners_crossed(CORNERS_CROSSED[0], CORNERS_APART[0], memo)
+    assert not _corners_crossed(CORNERS_CROSSED[1], CORNERS_CROSSED[0], memo)
