@@ -644,9 +644,15 @@ class ColdStart:
         timeout_s: float = INSTALL_TIMEOUT_S,
         check: bool = True,
     ) -> Timed:
-        """Run one step with its output in logs/NAME.log; StepFailed on a non-zero exit."""
+        """Run one step with its output in logs/NAME.log; StepFailed on a non-zero exit.
+
+        It runs in ``cwd``, by default the run's own folder, never where the script was
+        started: there a ``build/`` folder (a setup.py build's output, as in a checkout)
+        is a namespace package that shadows the ``build`` tool, so ``import build`` passed
+        and ``python -m build`` then failed."""
         self.say(f"{name}: {shlex.join(str(part) for part in cmd)}")
         log = self.logs / f"{name}.log"
+        cwd = self.work if cwd is None else cwd
         timed = run_timed(cmd, env=env or self.tool_env, cwd=cwd, timeout_s=timeout_s, log=log)
         self.say(f"{name}: exit {timed.returncode} after {timed.wall_s:.1f} s")
         if check and timed.returncode != 0:

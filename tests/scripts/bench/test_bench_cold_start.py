@@ -354,3 +354,19 @@ def test_the_check_fails_when_the_nodes_first_start_answers_over_three_times_lat
     node.node_first_s = 3.5
     (why,) = bench.failures([node])
     assert "3.5x the one after a second start" in why
+
+
+def test_steps_run_in_the_runs_folder_where_no_build_folder_shadows_the_tool(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    checkout = tmp_path / "checkout"
+    (checkout / "build").mkdir(parents=True)  # a setup.py build's output, as in a checkout
+    monkeypatch.chdir(checkout)
+    work = tmp_path / "work"
+    work.mkdir()
+    run = bench.ColdStart(bench.parse_args([]), work)
+    probe = "import importlib.util, os; print(os.getcwd(), importlib.util.find_spec('build'))"
+    timed = run.step("probe", [sys.executable, "-c", probe])
+    where, spec = timed.output.strip().split(" ", 1)
+    assert Path(where).resolve() == work.resolve()
+    assert str(checkout) not in spec
