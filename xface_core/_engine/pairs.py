@@ -380,7 +380,7 @@ def corners_can_cross(row: FloatArray) -> bool:
     return bool(row[14] >= 0.5 and row[18] * row[17] - row[19] * row[16] < 0.0)
 
 
-@njit_no_refcount
+@njit_inline
 def wedges_cross(row: FloatArray, cb: float, sb: float, cm: float, sm: float, x0: float,
                  y_m: float, margin: float, rays: FloatArray) -> bool:  # fmt: skip
     """Do the parts overlap near the pair's vertex V and the start corner K of its edge,
@@ -391,11 +391,6 @@ def wedges_cross(row: FloatArray, cb: float, sb: float, cm: float, sm: float, x0
     inside the cone of :func:`_cone_admits`. Judged only where V is nearer K than half of
     K's edge (the wedges stand for the parts there). Every (vertex, corner) meeting is
     some pair's start corner, so the start corners of all pairs cover them all.
-
-    A call, not inlined: the step's scan tests every pair in reach with it (``scan._crossing``
-    screens most), and its cone's eight half-plane tests inlined into that loop made the
-    loop slower for the pairs it screens out (the maps 0.94-0.96 of their time called,
-    bit for bit, docs/notes/2026-11-30-where-a-cell-spends-its-cycles.md).
     """
     if not corners_can_cross(row):
         return False

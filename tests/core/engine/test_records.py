@@ -164,7 +164,7 @@ def test_the_engine_below_its_entries_runs_without_reference_counting() -> None:
 #: may lose it unnoticed.
 INLINED = {
     "events.contact_value", "pairs._cone_admits", "pairs._side_of_all", "pairs.adjacent_gap",
-    "pairs.clipped_gap", "pairs.eval_pair", "pairs.pair_at",
+    "pairs.clipped_gap", "pairs.eval_pair", "pairs.pair_at", "pairs.wedges_cross",
     "pairs.vertex_in_edge_frame", "records.frictionless", "records.held_contacts",
     "scan._crossing", "segment._segment",
 } | {
