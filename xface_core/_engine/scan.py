@@ -762,11 +762,6 @@ def _contacts_inside_step(
             clipped_gap(row, g_prev[i], cb0, sb0, cm0, sm0, x0, step.y_m) <= thr[i]
         ):
             continue  # inside at the start already
-        if rates[0] < 0.0:
-            rates = _turn_rates(seg, step, nb, nm)
-        start, end = (cb0, sb0, cm0, sm0), (cb1, sb1, cm1, sm1)
-        if _far_outside_or_behind(seg, step, i, thr[i], rates, start, end):
-            continue
         if not sampled:
             # The states at the samples, computed once and shared by every pair: on the
             # step's dense output, which only has to show where to look (a dip found there
@@ -777,11 +772,22 @@ def _contacts_inside_step(
                 samples[k, 2], samples[k, 3] = math.cos(sb_k), math.sin(sb_k)
                 samples[k, 4], samples[k, 5] = math.cos(sm_k), math.sin(sm_k)
             sampled = True
+        screened = False
         for k in range(n_samples):
             t = (k + 1) / (n_samples + 1) * h_end
             at_sample = (samples[k, 2], samples[k, 3], samples[k, 4], samples[k, 5])
             if contact_value(row, thr[i], at_sample, x0, step.y_m - t) > 0.0:
                 continue
+            # The screen only where a sample dips: it never changes what the samples find
+            # (a pair it passes has no contact inside the step), and three samples cost
+            # less than one bound.
+            if not screened:
+                if rates[0] < 0.0:
+                    rates = _turn_rates(seg, step, nb, nm)
+                start, end = (cb0, sb0, cm0, sm0), (cb1, sb1, cm1, sm1)
+                if _far_outside_or_behind(seg, step, i, thr[i], rates, start, end):
+                    break
+                screened = True
             pb_k, pm_k, _, _, _ = step_to(seg, step, t)
             at_sample = (math.cos(pb_k), math.sin(pb_k), math.cos(pm_k), math.sin(pm_k))
             if contact_value(row, thr[i], at_sample, x0, step.y_m - t) > 0.0:
