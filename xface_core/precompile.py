@@ -27,10 +27,11 @@ from pathlib import Path
 
 from xface_core._engine.precompiled import MANIFEST_NAME, SHIPPED_DIR_ENV, write_manifest
 
-__all__ = ["build", "check", "main"]
+__all__ = ["GENERIC_CPU", "build", "check", "main"]
 
-#: The build's own environment for a child process.
-_GENERIC_CPU = {"NUMBA_CPU_NAME": "generic", "NUMBA_CPU_FEATURES": ""}
+#: The environment that makes numba compile for a generic CPU of this architecture (what the
+#: shipped build is; set for the build's child process).
+GENERIC_CPU = {"NUMBA_CPU_NAME": "generic", "NUMBA_CPU_FEATURES": ""}
 
 
 def _child_env(numba_cache: Path, shipped: Path, extra: dict[str, str]) -> dict[str, str]:
@@ -66,7 +67,7 @@ def build(out_dir: Path) -> dict:  # type: ignore[type-arg]
     with tempfile.TemporaryDirectory(prefix="xface-build-") as scratch:
         numba_cache = Path(scratch) / "numba"
         empty = Path(scratch) / "no-shipped-engine"  # no earlier build is reused
-        report = _run_child("build", numba_cache, empty, _GENERIC_CPU)
+        report = _run_child("build", numba_cache, empty, GENERIC_CPU)
         for old in [*out_dir.glob("*.nbi"), *out_dir.glob("*.nbc"), out_dir / MANIFEST_NAME]:
             old.unlink(missing_ok=True)
         folders = [p for p in numba_cache.iterdir() if p.is_dir()]

@@ -1,7 +1,7 @@
 """Time two versions of xface_core side by side: the ratio after/before.
 
     python scripts/bench/bench_side_by_side.py --before <git-rev> [--after <git-rev>|WORKTREE]
-        [--repeats N] [--quick] [--only predict,map,batch,table]
+        [--repeats N] [--quick] [--only predict,map,batch,table] [--cpu host|generic]
         [--out docs/notes/DATE-side-by-side-SUBJECT.md] [--note TEXT]
 
 A git revision's ``xface_core/`` is extracted (``git archive``) into a temporary directory as
@@ -11,7 +11,10 @@ default ``--after``) is the working tree's package, copied the same way without 
 caches. So both versions are compiled here for this machine: the working tree's own package
 would run the shipped build compiled for a generic CPU (and whatever its ``__pycache__``
 holds), which made the working tree's predictions about 1.04 times slower than the same code
-extracted from a commit. Each version runs in a process of its own
+extracted from a commit. ``--cpu generic`` compiles both copies for a generic CPU of this
+architecture instead, the shipped build's codegen: the same change to the scan has moved the
+two builds by different amounts, by up to 15 %
+(docs/notes/2026-11-30-where-a-cell-spends-its-cycles.md). Each version runs in a process of its own
 (this script with ``--serve``), driven over a pipe: in one process the version imported
 second paid about 150 us per kernel call in numba's dispatch (both versions' records are
 tuples of the same element types, so they share one type fingerprint and the second version's
@@ -233,7 +236,10 @@ def serve(name: str, where: str) -> int:
         cmd = json.loads(line)
         op = cmd["op"]
         if op == "hello":
-            reply(threads=takes_threads(xf), seated=int(xf.Outcome.SEATED))
+            from numba.core import config
+
+            cpu = "generic" if config.CPU_NAME == "generic" else "host"
+            reply(threads=takes_threads(xf), seated=int(xf.Outcome.SEATED), cpu=cpu)
         elif op == "setup":
             sizes = QUICK if cmd["quick"] else FULL
             warm = warm_up(xf)
@@ -257,11 +263,11 @@ def serve(name: str, where: str) -> int:
 class Side:
     """One version in its own ``--serve`` process."""
 
-    def __init__(self, name: str, where: Path) -> None:
+    def __init__(self, name: str, where: Path, env: dict[str, str] | None = None) -> None:
         self.name = name
         cmd = [sys.executable, str(Path(__file__).resolve()), "--serve", name, str(where)]
         self.proc = subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-                                     text=True, cwd=ROOT)  # fmt: skip
+                                     text=True, cwd=ROOT, env=env)  # fmt: skip
 
     def ask(self, op: str, **fields: Any) -> dict[str, Any]:
         assert self.proc.stdin is not None
@@ -290,6 +296,14 @@ def start_sides(
     """A serving process per side; ``extract``: extract the revisions first (else they are
     in ``tmp`` already)."""
     sides, notes = [], []
+    # The shipped build's codegen (xface_core.precompile), or this machine's whatever the
+    # caller's environment says: numba keys its cache by the CPU, so each copy compiles for
+    # the one asked into its own cache.
+    from xface_core.precompile import GENERIC_CPU
+
+    env = {key: value for key, value in os.environ.items() if key not in GENERIC_CPU}
+    if args.cpu == "generic":
+        env.update(GENERIC_CPU)
     for role, rev in (("before", args.before), ("after", args.after)):
         name = f"{PACKAGE}_{role}"
         rewrites = 0
@@ -297,7 +311,7 @@ def start_sides(
             rewrites = (
                 copy_worktree(tmp, name) if rev == WORKTREE else extract_revision(rev, tmp, name)
             )
-        sides.append(Side(name, tmp))
+        sides.append(Side(name, tmp, env))
         if rewrites:
             notes.append(f"{role}: rewrote {rewrites} absolute `{PACKAGE}` references to {name}")
     return sides, notes
@@ -402,7 +416,7 @@ def report(args: argparse.Namespace, argv: Sequence[str], info: dict[str, Any]) 
             f"- {args.repeats} repeats per side, interleaved, each in a fresh process; "
             f"per-call medians; "
             f"{'quick' if args.quick else 'full'} workloads ({', '.join(args.only)}); "
-            f"threads: {info['threads']}; "
+            f"threads: {info['threads']}; compiled for the {args.cpu} CPU; "
             f"warm-up (compile or cache load) {warm[0]:.1f} s before, {warm[1]:.1f} s after"
         ),
         f"- machine: {machine_note()}; {datetime.now(UTC):%Y-%m-%d %H:%M} UTC",
@@ -420,6 +434,13 @@ def parse(argv: Sequence[str]) -> argparse.Namespace:
     parser.add_argument("--quick", action="store_true", help="tiny workloads (for the tests)")
     parser.add_argument("--out", type=Path, help="also write the Markdown report here")
     parser.add_argument("--note", default="", help="a line to put at the top of the report")
+    parser.add_argument(
+        "--cpu",
+        choices=("host", "generic"),
+        default="host",
+        help="compile both copies for this machine's CPU (default) or for a generic CPU of its "
+        "architecture, as the shipped build is",
+    )
     parser.add_argument(
         "--only",
         default=",".join(KINDS),
@@ -448,6 +469,9 @@ def run_both(args: argparse.Namespace, tmp: Path) -> tuple[dict[str, Any], bool]
         }
         setup = {"quick": args.quick, "map_kw": kws["acceptance_map"],
                  "batch_kw": kws["predict_batch"]}  # fmt: skip
+        cpus = {h["cpu"] for h in hellos}
+        if cpus != {args.cpu}:
+            raise ImportError(f"the sides compile for {sorted(cpus)}, not for {args.cpu}")
         warmup_s = [side.ask("setup", **setup)["warmup"] for side in sides]
         loads = [w for w in workloads(QUICK if args.quick else FULL) if w.kind in args.only]
         checks, same = compare(sides, loads, int(hellos[0]["seated"]))

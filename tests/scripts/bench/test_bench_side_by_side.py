@@ -88,3 +88,24 @@ def test_only_keeps_the_kinds_named_and_refuses_others() -> None:
     assert bench.parse(["--before", "HEAD"]).only == list(bench.KINDS)
     with pytest.raises(SystemExit):
         bench.parse(["--before", "HEAD", "--only", "maps"])
+
+
+def test_cpu_is_host_by_default_generic_on_request_and_nothing_else() -> None:
+    assert bench.parse(["--before", "HEAD"]).cpu == "host"
+    assert bench.parse(["--before", "HEAD", "--cpu", "generic"]).cpu == "generic"
+    with pytest.raises(SystemExit):
+        bench.parse(["--before", "HEAD", "--cpu", "skylake"])
+
+
+@pytest.mark.parametrize("cpu", ["host", "generic"])
+def test_the_serving_processes_compile_for_the_cpu_asked(tmp_path: Path, cpu: str) -> None:
+    # Both copies' processes report the CPU numba compiles for (the shipped build's generic
+    # codegen, or this machine's); nothing is compiled to answer.
+    args = bench.parse(["--before", "HEAD", "--after", "WORKTREE", "--cpu", cpu])
+    args.before = "WORKTREE"
+    sides, _ = bench.start_sides(args, tmp_path)
+    try:
+        assert [side.ask("hello")["cpu"] for side in sides] == [cpu, cpu]
+    finally:
+        for side in sides:
+            side.close()
