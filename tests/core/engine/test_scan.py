@@ -201,6 +201,35 @@ def test_the_gap_never_rises_above_its_ceiling_in_a_step(design, x0, theta0) -> 
 
 @pytest.mark.parametrize(
     ("design", "x0", "theta0"),
+    [
+        (xf.x_face(0.25, 2.0), 0.3, 0.2),
+        (xf.s_face(0.5, 1.0), 0.1, -0.2),
+        (xf.v_face(0.5, 1.0), 0.2, 0.3),
+    ],
+)
+def test_the_reach_budget_changes_less_than_the_travel_in_a_step(design, x0, theta0) -> None:
+    # A pair sleeps while its reach budget exceeds the travel the steps spend
+    # (_contact_events: the descent plus twice the turn between a step's ends times the
+    # pair's reach). On real segments the budget, taken at 17 states inside each step,
+    # never moves by more than that travel (0.77 of it at most when measured).
+    checked = 0
+    for seg, step, _, _ in _screened_steps(design, x0, theta0):
+        nb, nm, _, _, _ = step_to(seg, step, step.h)
+        turn = abs(nb - step.phi_b) + abs(nm - step.phi_m)
+        for i in range(seg.held.pairs.shape[0]):
+            row = seg.held.pairs[i]
+            budgets = []
+            for t in np.linspace(0.0, step.h, 17):
+                pb, pm, _, _, _ = step_to(seg, step, t)
+                g, u = pair_at(seg.held.pairs, i, pb, pm, seg.held.x0, step.y_m - t)[:2]
+                budgets.append(reach_budget(row, g, u))
+            assert max(budgets) - min(budgets) <= _travel(row, step.h, 2.0 * turn)
+            checked += 1
+    assert checked > 100
+
+
+@pytest.mark.parametrize(
+    ("design", "x0", "theta0"),
     [(xf.s_face(0.5, 1.0), 0.1, -0.2), (xf.x_face(0.25, 2.0), 0.3, 0.2)],
 )
 def test_the_pairs_near_their_edge_are_listed_for_the_dip_search(design, x0, theta0) -> None:
