@@ -242,15 +242,14 @@ def _contact_events(
         travel = _travel(row, step.h, turn)
         if sleep[i, 0] > travel:
             # Out of reach all through the step: no contact, no corners crossing, nothing
-            # to evaluate (most pairs of a run, most of the time). Its values at the start
-            # are carried on, stale, until it wakes. The budget is spent here, before the
-            # step is known to be taken: a step that ends in an event ends the segment, and
-            # start_segment wakes every pair.
+            # to evaluate (most pairs of a run, most of the time). Its values are stale
+            # until it wakes (_refresh_start; every reader of them wakes it first), so they
+            # are not carried on. The budget is spent here, before the step is known to be
+            # taken: a step that ends in an event ends the segment, and start_segment wakes
+            # every pair.
             sleep[i, 0] -= travel
             sleep[i, 1] = travel
             sleep[i, 2] = 1.0
-            g_next[i] = g_prev[i]
-            u_next[i] = u_prev[i]
             continue
         sleep[i, 1] = -1.0
         _refresh_start(row, i, work, (cb0, sb0, cm0, sm0), x0, step.y_m)
