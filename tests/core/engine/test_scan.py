@@ -166,6 +166,17 @@ def _screened_steps(design, x0: float, theta0: float):
             yield seg, step, _turn_rates(seg, step, nb, nm), ends
 
 
+def _pair_inside_step(seg, step: Step, i: int, states: int) -> list[tuple[float, float]]:
+    """Pair i's gap and edge parameter at ``states`` evenly spaced states of the step, its
+    ends included (each one integration step from the step's start)."""
+    values = []
+    for t in np.linspace(0.0, step.h, states):
+        pb, pm, _, _, _ = step_to(seg, step, t)
+        g, u = pair_at(seg.held.pairs, i, pb, pm, seg.held.x0, step.y_m - t)[:2]
+        values.append((float(g), float(u)))
+    return values
+
+
 @pytest.mark.parametrize(
     ("design", "x0", "theta0"),
     [
@@ -182,11 +193,8 @@ def test_the_gap_never_rises_above_its_ceiling_in_a_step(design, x0, theta0) -> 
     checked = 0
     for seg, step, rates, ends in _screened_steps(design, x0, theta0):
         for i in range(seg.held.pairs.shape[0]):
-            top, low = -np.inf, np.inf
-            for t in np.linspace(0.0, step.h, 64):
-                pb, pm, _, _, _ = step_to(seg, step, t)
-                g = pair_at(seg.held.pairs, i, pb, pm, seg.held.x0, step.y_m - t)[0]
-                top, low = max(top, g), min(low, g)
+            gaps = [g for g, _ in _pair_inside_step(seg, step, i, 64)]
+            top, low = max(gaps), min(gaps)
             for pieces in (1, 4):
                 floor, ceiling, _, _ = _gap_bounds(seg, step, i, rates, pieces, *ends)
                 assert floor <= low
@@ -218,11 +226,7 @@ def test_the_reach_budget_changes_less_than_the_travel_in_a_step(design, x0, the
         turn = abs(nb - step.phi_b) + abs(nm - step.phi_m)
         for i in range(seg.held.pairs.shape[0]):
             row = seg.held.pairs[i]
-            budgets = []
-            for t in np.linspace(0.0, step.h, 17):
-                pb, pm, _, _, _ = step_to(seg, step, t)
-                g, u = pair_at(seg.held.pairs, i, pb, pm, seg.held.x0, step.y_m - t)[:2]
-                budgets.append(reach_budget(row, g, u))
+            budgets = [reach_budget(row, g, u) for g, u in _pair_inside_step(seg, step, i, 17)]
             assert max(budgets) - min(budgets) <= _travel(row, step.h, 2.0 * turn)
             checked += 1
     assert checked > 100
