@@ -783,7 +783,6 @@ def _contacts_inside_step(
             if not screened:
                 if rates[0] < 0.0:
                     rates = _turn_rates(seg, step, nb, nm)
-                start, end = (cb0, sb0, cm0, sm0), (cb1, sb1, cm1, sm1)
                 if _far_outside_or_behind(seg, step, i, thr[i], rates, start, end):
                     break
                 screened = True
