@@ -21,7 +21,10 @@ table). A design without a file runs the engine and writes one; ``--no-store`` r
 engine and writes nothing. The engine takes from a minute to hours per design on two cores.
 A change to the scene's code or settings, or another pymunk, changes every key: the kept runs
 are then used as they are, with a warning naming what they were made with, unless
-``--rerun-stale`` runs the engine again.
+``--rerun-stale`` runs the engine again. While a design's engine map runs, each engine run is
+journaled as it ends (``<design>.<grid>.journal.jsonl`` beside the kept maps,
+:mod:`xface_core.crosscheck.journal`): a map stopped part way resumes from there when run
+again, and the journal goes once the map is kept.
 
 With ``--out`` an existing file keeps everything after the line :data:`KEEP_MARKER` (the
 hand-written discussion of the disagreements); only the text above it is generated.
@@ -33,6 +36,7 @@ and no false SEATED.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import hashlib
 import json
 import math
@@ -46,6 +50,7 @@ from golden_maps import lopsided_face, trapezoid_face
 import xface_core as xf
 from xface_core.crosscheck import compare as cc
 from xface_core.crosscheck import scene, store
+from xface_core.crosscheck.journal import RunJournal
 
 #: Custom faces by name (the golden outputs' two: scripts/evidence/golden_maps.py).
 CUSTOM = {"trapezoid": trapezoid_face, "lopsided": lopsided_face}
@@ -143,6 +148,13 @@ def store_path(store_dir: Path, design: Design, grid: int) -> Path:
     return store_dir / f"{_slug(design)}.{_cache_key(design, grid)}.npz"
 
 
+def journal_path(store_dir: Path, design: Design, grid: int) -> Path:
+    """Where the design's engine runs are journaled while its map runs
+    (:mod:`xface_core.crosscheck.journal`): an interrupted map resumes from there, and the
+    file goes once the map is stored."""
+    return store_dir / f"{_slug(design)}.{grid}.journal.jsonl"
+
+
 def stored_path(store_dir: Path, design: Design, grid: int) -> Path | None:
     """The design's file in ``store_dir`` whatever its key (today's if there is one), or
     None."""
@@ -163,7 +175,12 @@ def provenance() -> dict[str, str]:
 
 
 def engine_map(
-    design: Design, grid: int, store_dir: Path | None, quiet: bool, rerun_stale: bool = False
+    design: Design,
+    grid: int,
+    store_dir: Path | None,
+    quiet: bool,
+    rerun_stale: bool = False,
+    workers: int | None = None,
 ) -> tuple[store.StoredEvidence, Path | None]:
     """The design's converged engine map and its file: from ``store_dir`` when a file is
     there (made with other engine code or settings than today's, it is used as it is, with
@@ -189,17 +206,32 @@ def engine_map(
         stored = replace(stored, engine=confirmed)
         store.save(path, stored)
         return stored, path
-    result = cc.engine_map(
-        design.build(),
-        design.physics(),
-        grid=grid,
-        converged=True,
-        progress=None if quiet else cc.stderr_progress,
-    )
+    with contextlib.ExitStack() as stack:
+        runs = None
+        if store_dir is not None:
+            runs = stack.enter_context(RunJournal(journal_path(store_dir, design, grid), key))
+            if runs.replaced_other:
+                print(
+                    f"{design.label}: {runs.path.name} was made with other engine code or "
+                    "settings; it is replaced as the engine runs",
+                    file=sys.stderr,
+                )
+            elif len(runs) and not quiet:
+                print(f"{design.label}: resuming with {len(runs)} runs kept", file=sys.stderr)
+        result = cc.engine_map(
+            design.build(),
+            design.physics(),
+            grid=grid,
+            converged=True,
+            progress=None if quiet else cc.stderr_progress,
+            journal=runs,
+            workers=workers,
+        )
     evidence = store.StoredEvidence(key, design.label, result, provenance=provenance())
     path = None if store_dir is None else store_path(store_dir, design, grid)
-    if path is not None:
+    if path is not None and store_dir is not None:
         store.save(path, evidence)
+        journal_path(store_dir, design, grid).unlink(missing_ok=True)
     return evidence, path
 
 
@@ -316,6 +348,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--json", type=Path, default=None, help="per-design summary as JSON")
     ap.add_argument("--check", action="store_true", help="exit 1 when a design misses the bar")
     ap.add_argument("--quiet", action="store_true")
+    ap.add_argument(
+        "--workers",
+        type=int,
+        default=None,
+        help="engine processes where the engine runs (default: one per CPU)",
+    )
     args = ap.parse_args(argv)
     designs = list(DESIGNS)
     if args.only:
@@ -333,7 +371,9 @@ def main(argv: list[str] | None = None) -> int:
         store_dir = None if args.no_store else args.store
         if args.stored_only and (store_dir is None or stored_path(store_dir, d, args.grid) is None):
             continue
-        evidence, path = engine_map(d, args.grid, store_dir, args.quiet, args.rerun_stale)
+        evidence, path = engine_map(
+            d, args.grid, store_dir, args.quiet, args.rerun_stale, args.workers
+        )
         r = compare(d, evidence, path)
         rows.append((d, r))
         if not args.quiet:

@@ -26,7 +26,7 @@ import multiprocessing
 import os
 import sys
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field, replace
 
@@ -40,6 +40,7 @@ from xface_core.physics import Physics
 from xface_core.predict import predict
 from xface_core.runner import outcomes_at
 
+from .journal import RunJournal
 from .scene import (
     DEFAULT_ENGINE,
     DEFAULT_ROUNDING,
@@ -258,18 +259,41 @@ def run_engine(
     *,
     workers: int | None = None,
     progress: Progress | None = None,
+    journal: RunJournal | None = None,
 ) -> list[EngineRun]:
-    """The engine over ``tasks`` (x0 in D, theta0, settings), in processes when worth it."""
+    """The engine over ``tasks`` (x0 in D, theta0, settings), in processes when worth it.
+
+    With a ``journal``, a task it holds a run for is answered from it, and every other run
+    is added to it the moment it ends (:mod:`.journal`): an interrupted map resumes there."""
+    known: list[EngineRun | None] = (
+        [None] * len(tasks) if journal is None else [journal.get(t) for t in tasks]
+    )
+    todo = [i for i, run in enumerate(known) if run is None]
+    runs = _runs(design, physics, [tasks[i] for i in todo], workers, progress)
+    for i, run in zip(todo, runs, strict=True):
+        if journal is not None:
+            journal.add(tasks[i], run)
+        known[i] = run
+    return [run for run in known if run is not None]
+
+
+def _runs(
+    design: FaceDesign,
+    physics: Physics,
+    tasks: Sequence[tuple[float, float, EngineSettings]],
+    workers: int | None,
+    progress: Progress | None,
+) -> Iterator[EngineRun]:
+    """:func:`run_engine`'s runs of ``tasks``, in their order, each as it ends."""
     n_workers = max(1, os.cpu_count() or 1) if workers is None else max(1, workers)
     start = time.monotonic()
     if n_workers == 1 or len(tasks) <= INLINE_RUNS:
         _init_worker(design, physics)
-        out = []
         for i, task in enumerate(tasks):
-            out.append(_run_task(task))
+            yield _run_task(task)
             if progress is not None and (i + 1) % 50 == 0:
                 progress(i + 1, len(tasks), time.monotonic() - start)
-        return out
+        return
     # Interleaved order spreads slow regions of a map over the workers; small chunks keep
     # the estimate honest.
     # fork where there is one: no re-import of the caller's main module (scripts without a
@@ -277,16 +301,14 @@ def run_engine(
     methods = multiprocessing.get_all_start_methods()
     context = multiprocessing.get_context("fork" if "fork" in methods else "spawn")
     chunk = max(1, min(16, len(tasks) // (8 * n_workers)))
-    results: list[EngineRun] = []
     report_every = max(1, len(tasks) // 20)
     with ProcessPoolExecutor(
         n_workers, mp_context=context, initializer=_init_worker, initargs=(design, physics)
     ) as pool:
         for i, run in enumerate(pool.map(_run_task, tasks, chunksize=chunk)):
-            results.append(run)
+            yield run
             if progress is not None and ((i + 1) % report_every == 0 or i + 1 == len(tasks)):
                 progress(i + 1, len(tasks), time.monotonic() - start)
-    return results
 
 
 def _engine_pass(
@@ -298,6 +320,7 @@ def _engine_pass(
     rounding: float,
     workers: int | None,
     progress: Progress | None,
+    journal: RunJournal | None = None,
 ) -> tuple[list[EngineRun], list[EngineRun]]:
     """Sharp and rounded runs of every cell at one step size."""
     sharp = settings.with_step(settings.step)
@@ -305,7 +328,7 @@ def _engine_pass(
     tasks = [
         (float(x), float(t), s) for s in (sharp, rounded) for x, t in zip(x0, theta0, strict=True)
     ]
-    runs = run_engine(design, physics, tasks, workers=workers, progress=progress)
+    runs = run_engine(design, physics, tasks, workers=workers, progress=progress, journal=journal)
     n = len(x0)
     return runs[:n], runs[n:]
 
@@ -393,8 +416,11 @@ def engine_map(
     converge_by: str = "grid",
     workers: int | None = None,
     progress: Progress | None = None,
+    journal: RunJournal | None = None,
 ) -> EngineMap:
-    """The engine's runs over the cells (the arguments as for :func:`crosscheck`)."""
+    """The engine's runs over the cells (the arguments as for :func:`crosscheck`); with a
+    ``journal`` every run is kept there as it ends and taken from there when it holds it
+    (:func:`run_engine`), so a map interrupted resumes where it stopped."""
     if converge_by not in CROSSCHECK_CONVERGE_BY:
         raise ValueError(
             f"converge_by must be one of {CROSSCHECK_CONVERGE_BY}, got {converge_by!r}"
@@ -402,7 +428,9 @@ def engine_map(
     phys = Physics() if physics is None else physics
     start = time.monotonic()
     x0, theta0, n_grid = _cells(grid, cells)
-    sharp, rounded = _engine_pass(design, phys, x0, theta0, settings, rounding, workers, progress)
+    sharp, rounded = _engine_pass(
+        design, phys, x0, theta0, settings, rounding, workers, progress, journal
+    )
     history: list[tuple[float, int]] = []
     changed = np.zeros(x0.size, dtype=bool)
     is_converged: bool | None = None
@@ -416,8 +444,9 @@ def engine_map(
             # 2e-5 D steps), an artefact of the pair, not of the step.
             finer = replace(used, step=used.step / 2.0, slop=used.slop / 2.0)
             f_sharp, f_rounded = _engine_pass(
-                design, phys, x0[active], theta0[active], finer, rounding, workers, progress
-            )
+                design, phys, x0[active], theta0[active], finer, rounding, workers, progress,
+                journal,
+            )  # fmt: skip
             before = _verdicts([sharp[i] for i in active], [rounded[i] for i in active])
             moved = _verdicts(f_sharp, f_rounded) != before
             for j, i in enumerate(active):
@@ -446,7 +475,9 @@ def engine_map(
         converge_by=converge_by,
     )
     if converged:
-        result = confirm_stalls(design, result, phys, workers=workers, progress=progress)
+        result = confirm_stalls(
+            design, result, phys, workers=workers, progress=progress, journal=journal
+        )
     return result
 
 
@@ -457,6 +488,7 @@ def confirm_stalls(
     *,
     workers: int | None = None,
     progress: Progress | None = None,
+    journal: RunJournal | None = None,
 ) -> EngineMap:
     """The engine map with every jammed cell (a run that stalled away from the mated pose,
     sharp or rounded) run again, both ways, at ``STALL_CONFIRM`` times the stall speed.
@@ -464,7 +496,8 @@ def confirm_stalls(
     A stall at the default speed can be a creep: near a fold of a two-contact path the
     parts must turn hundreds of rad per D of descent, and the pivot moves at about 1e-6 of
     its free speed (S H/D 0.32988, r_p 2 at x0 = 0.7, theta0 = -pi/10 stalls at 1e-3 and seats
-    at 1e-4 and 1e-5). A true jam stalls again at once.
+    at 1e-4 and 1e-5). A true jam stalls again at once. ``journal`` as for
+    :func:`engine_map`.
     """
     phys = Physics() if physics is None else physics
     start = time.monotonic()
@@ -479,7 +512,7 @@ def confirm_stalls(
         (float(engine.x0[i]), float(engine.theta0[i]), slow.rounded(engine.rounding))
         for i in jammed
     ]
-    runs = run_engine(design, phys, tasks, workers=workers, progress=progress)
+    runs = run_engine(design, phys, tasks, workers=workers, progress=progress, journal=journal)
     sharp, rounded = list(engine.sharp), list(engine.rounded)
     before = _verdicts(sharp, rounded)
     for k, i in enumerate(jammed):

@@ -106,7 +106,7 @@ def _scripted_engine(
     passes: list[tuple[float, list[float]]] = []
     first = DEFAULT_ENGINE.step
 
-    def fake(design, physics, x0, theta0, settings, rounding, workers, progress):  # type: ignore[no-untyped-def]
+    def fake(design, physics, x0, theta0, settings, rounding, workers, progress, journal):  # type: ignore[no-untyped-def]
         passes.append((settings.step, [float(x) for x in x0]))
         k = round(math.log2(first / settings.step))
         seats = [seated_at[int(x)][k] for x in x0]

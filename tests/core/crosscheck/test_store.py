@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import fields, replace
+from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -15,18 +16,6 @@ from xface_core.crosscheck import DEFAULT_ENGINE, EngineRun
 from xface_core.crosscheck.compare import EngineMap, engine_map
 from xface_core.crosscheck.store import MAX_BYTES, MAX_CELLS, StoredEvidence, load, save
 from xface_core.errors import XfaceValueError
-
-
-def _same_run(a: EngineRun, b: EngineRun) -> bool:
-    """Field by field, NaN equal to NaN (an out-of-reach run has no final height)."""
-    for f in fields(EngineRun):
-        x, y = getattr(a, f.name), getattr(b, f.name)
-        if isinstance(x, float) and math.isnan(x):
-            if not (isinstance(y, float) and math.isnan(y)):
-                return False
-        elif x != y or type(x) is not type(y):
-            return False
-    return True
 
 
 @pytest.fixture(scope="module")
@@ -41,7 +30,9 @@ def _probe() -> tuple[tuple[float, float], EngineRun]:
     return (0.302, 0.2), run
 
 
-def test_a_map_reads_back_field_for_field(tmp_path: Path, small_map: EngineMap) -> None:
+def test_a_map_reads_back_field_for_field(
+    tmp_path: Path, small_map: EngineMap, same_run: Callable[[EngineRun, EngineRun], bool]
+) -> None:
     cell, run = _probe()
     path = tmp_path / "m.npz"
     save(path, StoredEvidence("k1", "X 0.25, 2", small_map, {cell: run}))
@@ -53,7 +44,7 @@ def test_a_map_reads_back_field_for_field(tmp_path: Path, small_map: EngineMap) 
     assert np.array_equal(e.changed, small_map.changed)
     for side in ("sharp", "rounded"):
         pairs = zip(getattr(e, side), getattr(small_map, side), strict=True)
-        assert all(_same_run(a, b) for a, b in pairs)
+        assert all(same_run(a, b) for a, b in pairs)
     assert e.settings == small_map.settings
     assert (e.grid, e.rounding, e.converged) == (small_map.grid, small_map.rounding, None)
     assert (e.step_history, e.stall_changes, e.converge_by) == (
@@ -62,7 +53,7 @@ def test_a_map_reads_back_field_for_field(tmp_path: Path, small_map: EngineMap) 
         small_map.converge_by,
     )
     assert list(back.probes) == [cell]
-    assert _same_run(back.probes[cell], run)
+    assert same_run(back.probes[cell], run)
 
 
 def test_an_out_of_reach_run_keeps_its_nan_height(tmp_path: Path, small_map: EngineMap) -> None:

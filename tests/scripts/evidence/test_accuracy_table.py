@@ -18,6 +18,7 @@ from typing import Any
 import pytest
 
 from xface_core.crosscheck import store
+from xface_core.crosscheck.journal import RunJournal
 
 ROOT = Path(__file__).resolve().parents[3]
 sys.path.insert(0, str(ROOT / "scripts" / "evidence"))
@@ -91,3 +92,32 @@ def test_runs_kept_under_another_key_are_found_and_named(
     assert path == stale
     assert evidence.engine.grid == 21
     assert "made with other engine code" in capsys.readouterr().err
+
+
+def test_an_interrupted_map_resumes_from_its_journal_which_goes_once_stored(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A real 3 x 3 converged map (seconds), stopped after five runs, then run again."""
+    design = table.Design("X", 1.0, 3.0)
+    journal = table.journal_path(tmp_path, design, 3)
+    real_add = RunJournal.add
+
+    def add_then_stop(self: RunJournal, task: Any, run: Any) -> None:
+        real_add(self, task, run)
+        if len(self) == 5:
+            raise KeyboardInterrupt
+
+    monkeypatch.setattr(RunJournal, "add", add_then_stop)
+    with pytest.raises(KeyboardInterrupt):
+        table.engine_map(design, 3, tmp_path, quiet=False)
+    assert len(RunJournal(journal, table._cache_key(design, 3))) == 5
+    monkeypatch.setattr(RunJournal, "add", real_add)
+    evidence, path = table.engine_map(design, 3, tmp_path, quiet=False)
+    assert "resuming with 5 runs kept" in capsys.readouterr().err
+    assert path is not None
+    assert path.exists()
+    assert not journal.exists()
+    whole, _ = table.engine_map(design, 3, None, quiet=True)
+    assert evidence.engine.step_history == whole.engine.step_history
+    assert evidence.engine.sharp == whole.engine.sharp
+    assert evidence.engine.rounded == whole.engine.rounded
