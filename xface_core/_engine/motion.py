@@ -603,9 +603,22 @@ def _slips_back(
     mu 0.46 (400 events at one state), where sticking, with the force on the cone, is
     consistent (scripts/evidence/two_contact_coulomb.py's enumeration agrees).
     """
+    slip, floor = _slip_and_floor(table, i, x0, mode, pb, pm, ym, vb, vm)
+    return bool(slip < -floor)
+
+
+@njit_no_refcount
+def _slip_and_floor(
+    table: FloatArray, i: int, x0: float, mode: int, pb: float, pm: float, ym: float,
+    vb: float, vm: float,
+) -> tuple[float, float]:  # fmt: skip
+    """Pair i's slip rate (D per D of descent) at the state ``(pb, pm, ym)`` and the rate
+    ``(vb, vm)``, signed so that sliding in direction ``mode`` is positive, and the
+    round-off floor below which its sign means nothing: SLIP_FLOOR times the size of its
+    terms."""
     cb, cm, gam = tangent(table, i, pb, pm, x0, ym)
     floor = SLIP_FLOOR * (abs(cb * vb) + abs(cm * vm) + abs(gam))
-    return bool(mode * (cb * vb + cm * vm + gam) < -floor)
+    return mode * (cb * vb + cm * vm + gam), floor
 
 
 @njit_no_refcount
@@ -661,9 +674,8 @@ def friction_modes(held: Contacts, pb: float, pm: float, ym: float, v0b: float, 
             if abs(x2) <= mu * lam2 * (1.0 + STICK_SLACK):
                 return True
         else:
-            tb, tm, tg = tangent(table, act[0], qb, qm, x0, yy)
-            floor = SLIP_FLOOR * (abs(tb * wb) + abs(tm * wm) + abs(tg))
-            if mode * (tb * wb + tm * wm + tg) > floor:
+            slip_ahead, floor = _slip_and_floor(table, act[0], x0, mode, qb, qm, yy, wb, wm)
+            if slip_ahead > floor:
                 if not _slips_back(table, act[0], x0, mode, pb, pm, ym, vb, vm):
                     return True
                 if deferred == FREE:

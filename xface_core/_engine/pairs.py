@@ -11,12 +11,12 @@ import math
 
 from .records import (
     CORNER_REACH,
-    TOUCH_WINDOW,
     U_CORNER,
     FloatArray,
     IntArray,
     njit_inline,
     njit_no_refcount,
+    touch_depth,
 )
 
 #: Columns of the pair table the engine fills itself (:func:`fill_extents`): the largest
@@ -499,7 +499,7 @@ def touching_pairs(
         # touching), so the window reaches below -touch_tol.
         g = ev[i, 0]
         u = ev[i, 1]
-        if g > reach or g < -TOUCH_WINDOW * touch_tol or u < -0.25 or u > 1.25:
+        if g > reach or g < -touch_depth(touch_tol) or u < -0.25 or u > 1.25:
             continue
         row = table[i]
         # A vertex within CORNER_REACH of an edge's end is at that corner, so it touches

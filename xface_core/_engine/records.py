@@ -201,6 +201,15 @@ SLIP_FLOOR = 1e-9
 #: touching set and out of the contact search ("already behind its line") and the parts
 #: then cut into each other unnoticed.
 TOUCH_WINDOW = 64.0
+
+
+@njit_inline
+def touch_depth(touch_tol: float) -> float:
+    """How far (D) behind its edge's line a pair may lie and still count as touching:
+    ``TOUCH_WINDOW`` touching tolerances (``touch_tol``, D)."""
+    return TOUCH_WINDOW * touch_tol
+
+
 MAX_EXCLUDED = 8  # pairs kept out of the touching set at one point of the path
 #: Every trial step samples the contact functions of pairs near their edge at k / 4 of the
 #: step (a vertex in and out again past a corner within the step) ...

@@ -51,7 +51,6 @@ from .records import (
     FLAT_GAP,
     FREE,
     SLEEP_SLACK,
-    TOUCH_WINDOW,
     U_TOL,
     Contacts,
     FloatArray,
@@ -62,6 +61,7 @@ from .records import (
     Work,
     njit_inline,
     njit_no_refcount,
+    touch_depth,
 )
 
 
@@ -418,7 +418,7 @@ def _is_contact(opts: Options, seg: Segment, step: Step, i: int, hk: float, thr:
     if gk < thr - CORNER_REACH:
         return False
     row = seg.held.pairs[i]
-    if gk < thr - TOUCH_WINDOW * opts.touch_tol and corner_distance(row, gk, uk) > CORNER_REACH:
+    if gk < thr - touch_depth(opts.touch_tol) and corner_distance(row, gk, uk) > CORNER_REACH:
         return False
     return not past_reflex_end(row, uk)
 
@@ -839,11 +839,11 @@ def _crossing(
     length2 = (row[5] - row[3]) ** 2 + (row[6] - row[4]) ** 2
     if abs(u) > 0.5 or g * g > 0.25 * length2 or u * u * length2 + g * g > 0.26 * length2:
         return False
-    margin = TOUCH_WINDOW * opts.touch_tol
+    margin = touch_depth(opts.touch_tol)
     memo, rays = work.corner_memo[i], work.rays
-    cb, sb, cm, sm, y, pb, pm = start
+    cb0, sb0, cm0, sm0, y0, pb0, pm0 = start
     # Read before the answer at ``now`` takes the memo's place.
-    start_known = memo[1] == pb and memo[2] == pm and memo[3] == y
+    start_known = memo[1] == pb0 and memo[2] == pm0 and memo[3] == y0
     start_crossed = memo[0] == 1.0
     cb, sb, cm, sm, y, pb, pm = now
     crossed_now = wedges_cross(row, cb, sb, cm, sm, x0, y, margin, rays)
@@ -852,8 +852,7 @@ def _crossing(
         return False
     if start_known:
         return not start_crossed
-    cb, sb, cm, sm, y, _, _ = start
-    return not wedges_cross(row, cb, sb, cm, sm, x0, y, margin, rays)
+    return not wedges_cross(row, cb0, sb0, cm0, sm0, x0, y0, margin, rays)
 
 
 @njit_inline

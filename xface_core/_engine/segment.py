@@ -45,7 +45,6 @@ from .records import (
     STEP_CAP_FLOOR,
     STICK,
     TINY,
-    TOUCH_WINDOW,
     UNDECIDED,
     FloatArray,
     IntArray,
@@ -58,6 +57,7 @@ from .records import (
     njit_cached,
     njit_inline,
     njit_no_refcount,
+    touch_depth,
 )
 from .scan import asleep, find_event, reach_budget, wake
 
@@ -111,7 +111,7 @@ def start_segment(
             sleep[i, 0], sleep[i, 1], sleep[i, 2] = sleep[i, 0] - spent, -1.0, 1.0
             continue
         g, u, _, _, _, _, _, _, _ = eval_pair(row, cb, sb, cm, sm, run.x0, run.y_m)
-        thr[i] = min(g, 0.0) - tt if -TOUCH_WINDOW * tt <= g <= tt else 0.0
+        thr[i] = min(g, 0.0) - tt if -touch_depth(tt) <= g <= tt else 0.0
         g_prev[i] = g
         u_prev[i] = u
         # Looked at here: out of reach by its budget from now on, so the segment's first

@@ -166,7 +166,7 @@ INLINED = {
     "events.contact_value", "pairs._cone_admits", "pairs._side_of_all", "pairs.adjacent_gap",
     "pairs.clipped_gap", "pairs.eval_pair", "pairs.pair_at", "pairs.wedges_cross",
     "pairs.vertex_in_edge_frame", "records.frictionless", "records.held_contacts",
-    "scan._crossing", "segment._segment",
+    "records.touch_depth", "scan._crossing", "segment._segment",
 } | {
     # The step memo's look-ups: a call passes a Segment (about fifty words) by value, which
     # cost more than a look-up that finds its answer (maps 0.86-0.95 of their time, bit
