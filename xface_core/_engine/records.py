@@ -168,6 +168,11 @@ CORNER_REACH = 1e-7
 #: D: a contact function this close to zero is zero to round-off (coordinates of a few D
 #: carry about 1e-15); at both ends of a search it cannot bracket a crossing.
 FLAT_GAP = 1e-14
+#: rad per (rad/D): how closely a state solved on contacts that pin the path is known, per
+#: unit of its rate. The gaps carry about FLAT_GAP of round-off, and the angles that zero
+#: them that over the constraints' smallest singular value, which near a fold of the path
+#: falls as the rate grows (segment.trial_step: no step is asked to be more accurate).
+PINNED_ROUNDOFF = FLAT_GAP
 CUT_DEPTH = 1e-7  # D: deeper than this, a jump to a fold cut into a contact
 #: rad per accepted step: near a fold of the contact path the rate grows without bound and a
 #: long step could jump across thin features. 0.05 and 0.1 change no outcome but make final

@@ -230,6 +230,37 @@ def test_a_frictional_release_at_a_fold_chooses_again_and_both_mirror_runs_seat(
     assert runs[0].phi_m == pytest.approx(-0.4569, abs=1e-3)
 
 
+#: S H/D 0.5, r_p 1 from x0 = 0.9 D, theta0 = -7 pi / 40: a second contact arrives just past
+#: a fold of the two-contact path (the constraints' determinant 1.6e-4, growing along the
+#: descent), which goes on at about 1e4 rad per D and slows.
+PAST_A_FOLD = (xf.s_face(0.5, 1.0), 0.9, -7 * np.pi / 40)
+
+
+@pytest.mark.parametrize("rtol", [1e-11, 1e-12])
+def test_a_path_just_past_a_fold_goes_on_at_tight_tolerances(rtol: float) -> None:
+    # There the solved angles are known only to about 1e-11 rad: at rtol 1e-11 and below every
+    # trial length failed, and the run ended as a jam at (-0.0971, -0.6196) where the path
+    # goes on, as it does at the default tolerances and in Chipmunk2D at 1/100 and 1/1000 of
+    # the default stall speed (below the seat height at phi 0.136, -0.969 rad).
+    design, x0, theta0 = PAST_A_FOLD
+    default = xf.predict(design, x0, theta0, margins=False)
+    settings = xf.SolverSettings(rtol=rtol, atol=rtol * 1e-2, event_tol=1e-15)
+    tight = xf.predict(design, x0, theta0, settings=settings, margins=False)
+    assert default.reason == xf.Reason.BELOW_SEAT.text
+    assert tight.reason == default.reason
+    assert (tight.phi_b, tight.phi_m) == pytest.approx((default.phi_b, default.phi_m), abs=1e-6)
+
+
+def test_a_fold_ahead_still_ends_as_a_jam_at_tight_tolerances() -> None:
+    # S H/D 1, r_p 0 from x0 = -D, theta0 = -pi/4: the two contacts turn towards a fold, where
+    # the rate grows without bound; the trial lengths collapse there and the run is jammed.
+    settings = xf.SolverSettings(rtol=1e-12, atol=1e-14, event_tol=1e-15)
+    design = xf.s_face(1.0, 0.0)
+    p = xf.predict(design, -design.width, -np.pi / 4, settings=settings, margins=False)
+    assert p.outcome is xf.Outcome.BAD_MATE
+    assert p.reason == xf.Reason.SINGULAR.text
+
+
 #: V H/D 0.98, r_p 0, mu 0.46 from x0 = -0.494 D, theta0 = 0.706 (issue 37's probe, run 9): a
 #: single contact whose force sits on its friction cone while a very light base turns fast.
 LIGHT_BASE = xf.v_face(0.9822283062413161, 0.0, width=12.800598349870178)
