@@ -16,6 +16,7 @@ from .events import (
     Event,
     clear_step_memo,
     end_velocity,
+    has_dense,
     keep_trial_dense,
     start_velocity,
     step_to,
@@ -145,20 +146,8 @@ def trial_step(opts: Options, seg: Segment, step: Step) -> tuple[float, float, f
         return nb, nm, math.inf, 0.0, False
     sc_b = opts.atol + opts.rtol * max(abs(step.phi_b), abs(nb))
     sc_m = opts.atol + opts.rtol * max(abs(step.phi_m), abs(nm))
-    turn = max(abs(nb - step.phi_b), abs(nm - step.phi_m))
-    if pins_path(seg.held.n_active, seg.held.winv_b, seg.held.mu):
-        # Where the contacts pin the path, a state is their solution, known only to the
-        # gaps' round-off over the constraints' smallest singular value, which next to a
-        # fold of the path falls as the rate grows: a step is judged no closer than
-        # PINNED_ROUNDOFF times its mean rate where it leaves a fold behind. Asked for less
-        # (rtol 1e-11 just past a fold), every trial length failed and the run ended as a
-        # jam where the path goes on (S 0.5/1 at x0 = 0.9 D, theta0 = -7 pi / 40;
-        # docs/model.md). Towards a fold the rate grows, and there the trial lengths still
-        # collapse: the fold is a jam.
-        floor = PINNED_ROUNDOFF * max(1.0, turn / step.h)
-        if floor > min(sc_b, sc_m) and _leaves_a_fold(seg, step, nb, nm):
-            sc_b, sc_m = max(sc_b, floor), max(sc_m, floor)
     err = max(abs(eb) / sc_b, abs(em) / sc_m)
+    turn = max(abs(nb - step.phi_b), abs(nm - step.phi_m))
     # Cap the rotation per step: near a turning point of the contact path the rate grows
     # without bound and a long step could jump across thin features.
     if turn > MAX_TURN or turn > opts.jam_speed * step.h:
@@ -166,14 +155,38 @@ def trial_step(opts: Options, seg: Segment, step: Step) -> tuple[float, float, f
     return nb, nm, err, turn, ok
 
 
-@njit_inline
-def _leaves_a_fold(seg: Segment, step: Step, nb: float, nm: float) -> bool:
-    """Is the rate (rad per D) at the end of the trial step, which ends at ``(nb, nm)``,
-    finite and smaller than at its start: does the step move away from a fold of the path?"""
+@njit_no_refcount
+def error_at_roundoff(
+    opts: Options, seg: Segment, step: Step, nb: float, nm: float, turn: float, err: float
+) -> float:
+    """The error (relative, accept at <= 1) of a trial step that failed with ``err``, judged
+    again no closer than the solve's round-off where the contacts pin the path and the step
+    leaves a fold of it behind; else ``err``.
+
+    There a state is the contacts' solution, known only to the gaps' round-off over the
+    constraints' smallest singular value, which falls as the rate grows: PINNED_ROUNDOFF
+    times the step's mean rate (``turn`` over its length). Judged closer (rtol 1e-11 just
+    past a fold), every trial length failed and the run ended as a jam where the path goes
+    on (S 0.5/1 at x0 = 0.9 D, theta0 = -7 pi / 40; docs/model.md, Folds). Towards a fold the
+    rate grows: the trial lengths still collapse there, and the fold is a jam. Asked only
+    for a failed step (``steps_to_event``): in ``trial_step`` the test made the maps 2-5 %
+    slower.
+    """
+    if not (pins_path(seg.held.n_active, seg.held.winv_b, seg.held.mu) and has_dense(seg, step)):
+        return err
+    floor = PINNED_ROUNDOFF * max(1.0, turn / step.h)
+    sc_b = opts.atol + opts.rtol * max(abs(step.phi_b), abs(nb))
+    sc_m = opts.atol + opts.rtol * max(abs(step.phi_m), abs(nm))
+    if floor <= min(sc_b, sc_m):
+        return err
     v0b, v0m, _, _ = start_velocity(seg, step)
     v1b, v1m, _, _ = end_velocity(seg, nb, nm, step.y_m - step.h)
-    end = max(abs(v1b), abs(v1m))
-    return bool(math.isfinite(end) and end < max(abs(v0b), abs(v0m)))
+    rate_end = max(abs(v1b), abs(v1m))
+    if not (math.isfinite(rate_end) and rate_end < max(abs(v0b), abs(v0m))):
+        return err  # not leaving a fold behind
+    # The kept dense output holds the step's error estimates (integrate.rk_step).
+    eb, em = seg.dense[1, 13], seg.dense[1, 14]
+    return float(max(eb / max(sc_b, floor), em / max(sc_m, floor)))
 
 
 @njit_no_refcount
@@ -400,6 +413,8 @@ def steps_to_event(
         run.h = min(run.h, h_cap)
         step = Step(run.phi_b, run.phi_m, run.y_m, run.h)
         nb, nm, err, turn, ok = trial_step(opts, seg, step)
+        if err > 1.0 and ok:
+            err = error_at_roundoff(opts, seg, step, nb, nm, turn, err)
         if err > 1.0:
             run.rejected_steps += 1
             if step.h <= opts.event_tol:
