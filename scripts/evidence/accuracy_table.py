@@ -10,7 +10,10 @@ outputs, one of them with friction too) it runs
 :func:`xface_core.crosscheck.crosscheck` with ``converged=True`` and writes one row: M from
 xface and from the engine (sharp and rounded corners), agreement on the cells where the
 engine's answer is unambiguous, the ambiguous count, false SEATED and false failures, and
-then every disagreement with both final states.
+then every disagreement with both final states. A cell where xface stops and the engine
+seats is first solved a third way (:func:`drop_rigid_jams`): when the rigid quasi-static
+Coulomb problem has no way through xface's stop either (a wedge, or a pole of the drive
+force), the cell is a *rigid jam*, listed with its verdict and counted ambiguous.
 
 The engine's runs depend only on the polygons, the physics and the engine's settings, not on
 xface: they are kept in ``--store`` (default ``scripts/evidence/engine_maps/``, committed: one
@@ -46,11 +49,13 @@ from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 from golden_maps import lopsided_face, trapezoid_face
+from two_contact_coulomb import RigidStop, State, rigid_stop
 
 import xface_core as xf
 from xface_core.crosscheck import compare as cc
 from xface_core.crosscheck import scene, store
 from xface_core.crosscheck.journal import RunJournal
+from xface_core.errors import XfaceError
 
 #: Custom faces by name (the golden outputs' two: scripts/evidence/golden_maps.py).
 CUSTOM = {"trapezoid": trapezoid_face, "lopsided": lopsided_face}
@@ -251,11 +256,47 @@ def compare(
     return cc.drop_knife_edges(r, known=probes)
 
 
+#: A disagreement whose xface stop the rigid model shares, with the verdict.
+RigidJam = tuple[cc.Disagreement, RigidStop]
+
+
+def drop_rigid_jams(
+    design: Design, r: cc.CrosscheckResult
+) -> tuple[cc.CrosscheckResult, tuple[RigidJam, ...]]:
+    """The comparison with every false failure whose stop the rigid model shares marked
+    ambiguous, and those cells with their verdicts.
+
+    At each cell where xface stops and the engine seats, the quasi-static Coulomb problem is
+    solved on its own at xface's final state (``two_contact_coulomb.rigid_stop``: nothing of
+    xface's contact mechanics): a wedge there (no admissible motion) or a pole of the drive
+    force (it grows as 1 / distance up to the stop, and no motion is admissible past it)
+    means the rigid model has no way through, and the engine's seat is its compliance and
+    iterated friction sliding where the model cannot. The engine is then no reference for
+    the cell. A false SEATED is never dropped.
+    """
+    physics = design.physics()
+    face = design.build()
+    kept: list[cc.Disagreement] = []
+    jams: list[RigidJam] = []
+    ambiguous = r.ambiguous.copy()
+    for d in r.disagreements:
+        verdict = None
+        if d.kind == "false failure":
+            stop = State(d.xface.phi_b, d.xface.phi_m, d.x0, d.xface.y_m)
+            verdict = rigid_stop(face, stop, physics.friction, physics.damping_ratio)
+        if verdict is not None and verdict.kind:
+            jams.append((d, verdict))
+            ambiguous[d.index] = True
+        else:
+            kept.append(d)
+    return replace(r, ambiguous=ambiguous, disagreements=tuple(kept)), tuple(jams)
+
+
 def _pct(x: float) -> str:
     return "n/a" if math.isnan(x) else f"{100 * x:.2f} %"
 
 
-def _row(design: Design, r: cc.CrosscheckResult) -> str:
+def _row(design: Design, r: cc.CrosscheckResult, jams: int) -> str:
     mx, ms, mr = r.m_values()
     step = r.settings.step
     ok = r.agreement >= AGREEMENT_BAR and r.false_seated == 0
@@ -263,7 +304,7 @@ def _row(design: Design, r: cc.CrosscheckResult) -> str:
         f"| {design.label} | {design.note} | {mx} | {ms} / {mr} | {r.n_unambiguous} "
         f"| {_pct(r.agreement)} | {r.n_ambiguous} | {r.false_seated} | {r.false_failures} "
         f"| {step:g}{'' if r.converged else ' (not converged)'} | {r.stall_changes} "
-        f"| {r.knife_edges} "
+        f"| {r.knife_edges} | {jams} "
         f"| {'yes' if ok else '**no**'} |"
     )
 
@@ -281,7 +322,23 @@ def _disagreement_lines(design: Design, r: cc.CrosscheckResult) -> list[str]:
     return out
 
 
-def markdown(rows: list[tuple[Design, cc.CrosscheckResult]], grid: int, command: str) -> str:
+def _rigid_jam_lines(design: Design, jams: tuple[RigidJam, ...]) -> list[str]:
+    out = []
+    for d, verdict in jams:
+        e = d.engine
+        out.append(
+            f"- {design.label}: x0 = {d.x0:+.3f} D, theta0 = {d.theta0:+.4f} rad: "
+            f"{verdict.kind} ({verdict.detail}); xface ({d.xface.phi_b:+.3f}, "
+            f"{d.xface.phi_m:+.3f}, {d.xface.y_m:.3f}), engine {e.outcome.name} "
+            f"({e.phi_b:+.3f}, {e.phi_m:+.3f}, {e.y_m:.3f})"
+        )
+    return out
+
+
+Row = tuple[Design, cc.CrosscheckResult, tuple[RigidJam, ...]]
+
+
+def markdown(rows: list[Row], grid: int, command: str) -> str:
     lines = [
         "# Accuracy: xface against the converged engine",
         "",
@@ -296,7 +353,12 @@ def markdown(rows: list[tuple[Design, cc.CrosscheckResult]], grid: int, command:
             "M: SEATED cells (xface; engine sharp / rounded). Jams that crept: jammed engine cells "
             "whose seating changed when run again at 1/100 of the stall speed (a creep, not a "
             "jam; the slower run is the one compared). Knife edges: disagreeing cells whose "
-            "sharp engine answer flips within 0.002 D of x0 (counted ambiguous). Agreement: "
+            "sharp engine answer flips within 0.002 D of x0 (counted ambiguous). Rigid jams: "
+            "cells where xface stops and the engine seats, and the quasi-static Coulomb "
+            "problem solved on its own at xface's stop (`scripts/evidence/two_contact_coulomb.py`) "
+            "has no motion there either: a wedge, or a drive force that grows without bound "
+            "up to the stop with no motion past it (counted ambiguous: the engine's "
+            "compliance slides where the rigid model cannot). Agreement: "
             "on SEATED or not, over "
             "the cells where the engine's answer is unambiguous. Bar: at least "
             f"{100 * AGREEMENT_BAR:g} % and no false SEATED."
@@ -305,14 +367,17 @@ def markdown(rows: list[tuple[Design, cc.CrosscheckResult]], grid: int, command:
         (
             "| design (face H/D, r_p) | | M xface | M engine | unambiguous | agreement "
             "| ambiguous | false SEATED | false failures | engine step (D) | jams that crept "
-            "| knife edges | bar |"
+            "| knife edges | rigid jams | bar |"
         ),
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
-    lines += [_row(d, r) for d, r in rows]
-    dis = [line for d, r in rows for line in _disagreement_lines(d, r)]
+    lines += [_row(d, r, len(j)) for d, r, j in rows]
+    dis = [line for d, r, _ in rows for line in _disagreement_lines(d, r)]
     lines += ["", "## Disagreements", "", "Final states: (phi_B, phi_M in rad, y_M in D).", ""]
     lines += dis if dis else ["None."]
+    jams = [line for d, _, j in rows for line in _rigid_jam_lines(d, j)]
+    lines += ["", "## Rigid jams", "", "Final states as above; the engine's is a seat.", ""]
+    lines += jams if jams else ["None."]
     lines += ["", KEEP_MARKER]
     return "\n".join(lines) + "\n"
 
@@ -355,6 +420,15 @@ def main(argv: list[str] | None = None) -> int:
         help="engine processes where the engine runs (default: one per CPU)",
     )
     args = ap.parse_args(argv)
+    try:
+        return _run(args)
+    except (XfaceError, OSError) as exc:
+        # A hostile or damaged kept map or journal, an unwritable --out: said, not a traceback.
+        print(f"accuracy_table: error: {exc}", file=sys.stderr)
+        return 2
+
+
+def _run(args: argparse.Namespace) -> int:
     designs = list(DESIGNS)
     if args.only:
         designs = []
@@ -374,12 +448,13 @@ def main(argv: list[str] | None = None) -> int:
         evidence, path = engine_map(
             d, args.grid, store_dir, args.quiet, args.rerun_stale, args.workers
         )
-        r = compare(d, evidence, path)
-        rows.append((d, r))
+        r, jams = drop_rigid_jams(d, compare(d, evidence, path))
+        rows.append((d, r, jams))
         if not args.quiet:
             print(
                 f"{d.label}: agreement {_pct(r.agreement)}, false SEATED {r.false_seated}, "
-                f"false failures {r.false_failures}, ambiguous {r.n_ambiguous} "
+                f"false failures {r.false_failures}, ambiguous {r.n_ambiguous}, "
+                f"rigid jams {len(jams)} "
                 f"({time.monotonic() - t0:.0f} s)",
                 file=sys.stderr,
                 flush=True,
@@ -406,13 +481,14 @@ def main(argv: list[str] | None = None) -> int:
                         "m": r.m_values(),
                         "engine_step": r.settings.step,
                         "converged": r.converged,
+                        "rigid_jams": len(jams),
                     }
-                    for d, r in rows
+                    for d, r, jams in rows
                 ],
                 indent=1,
             )
         )
-    failing = [d.label for d, r in rows if r.agreement < AGREEMENT_BAR or r.false_seated]
+    failing = [d.label for d, r, _ in rows if r.agreement < AGREEMENT_BAR or r.false_seated]
     if failing:
         print("below the bar: " + "; ".join(failing), file=sys.stderr)
     return 1 if (args.check and failing) else 0

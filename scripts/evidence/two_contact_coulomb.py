@@ -85,6 +85,11 @@ class Contact:
     gap: float = 0.0
     u: float = 0.5
     end_distance: float = math.inf
+    #: Where the pair is on the outlines (layer, vertex index, edge index), -1 for hand-made
+    #: contacts: :func:`pair_gap` follows the same pair to other states.
+    layer: int = -1
+    vertex: int = -1
+    edge: int = -1
 
 
 @dataclass(frozen=True)
@@ -145,6 +150,9 @@ def find_contacts(design: FaceDesign, state: State, touch: float = TOUCH_GAP) ->
                                 gap=gap,
                                 u=along / length,
                                 end_distance=min(abs(along), abs(length - along)),
+                                layer=layer,
+                                vertex=i,
+                                edge=j,
                             )
                         )
     return found
@@ -376,6 +384,120 @@ def critical_friction(
         else:
             hi = mid
     return 0.5 * (lo + hi)
+
+
+def pair_gap(design: FaceDesign, state: State, contact: Contact) -> float:
+    """The signed gap (D) of ``contact``'s vertex-edge pair (found by :func:`find_contacts`)
+    at ``state``: the vertex's distance from the edge's line along its outward normal."""
+    base = design.base_outline_world(contact.layer, state.phi_b)
+    moving = design.moving_outline_world(contact.layer, state.x0, state.y_m, state.phi_m)
+    verts, poly = (moving, base) if contact.vertex_part == "moving" else (base, moving)
+    a, b = poly[contact.edge], poly[(contact.edge + 1) % len(poly)]
+    t = (b - a) / float(np.hypot(*(b - a)))
+    return float(np.dot(verts[contact.vertex] - a, np.array([t[1], -t[0]])))
+
+
+def on_contacts(
+    design: FaceDesign, contacts: list[Contact], state: State, y_m: float
+) -> tuple[State, float]:
+    """The state at pivot height ``y_m`` (D) where every pair of ``contacts`` still touches.
+
+    Gauss-Newton on the two angles from ``state`` (least squares: the pairs of two flush
+    edges are dependent), with a forward-difference Jacobian (1e-7 rad). Returns the state and
+    the largest gap left (D), which says whether the pairs can all touch there.
+    """
+    z = np.array([state.phi_b, state.phi_m])
+
+    def gaps(angles: FloatArray) -> FloatArray:
+        here = State(float(angles[0]), float(angles[1]), state.x0, y_m)
+        return np.array([pair_gap(design, here, c) for c in contacts])
+
+    for _ in range(60):
+        g = gaps(z)
+        jac = np.column_stack([(gaps(z + 1e-7 * e) - g) / 1e-7 for e in np.eye(2)])
+        step = np.linalg.lstsq(jac, -g, rcond=None)[0]
+        z = z + step
+        if np.abs(step).max() < 1e-15:
+            break
+    return State(float(z[0]), float(z[1]), state.x0, y_m), float(np.abs(gaps(z)).max())
+
+
+#: Distances (D of descent) either side of a stop where :func:`rigid_stop` looks for a pole.
+POLE_DISTANCES = (1e-4, 1e-5, 1e-6)
+#: The drive times the distance to the stop, at the three distances, within this ratio of
+#: each other: the drive grows as 1 / distance (a simple pole at the stop).
+POLE_SPREAD = 1.1
+
+
+@dataclass(frozen=True)
+class RigidStop:
+    """What the rigid quasi-static model with Coulomb friction does at a stop of xface.
+
+    ``kind``: ``"wedge"``, no motion is admissible at the stop; ``"pole"``, one motion is
+    admissible on the stop's contacts up to it, with a pushing drive that grows as
+    ``pole / distance``, and none just past it (a drive of finite force stalls before the
+    stop, one of infinite force cannot pass it); ``""``, neither is shown (``detail`` says
+    why). ``critical_mu``: for a wedge, the friction coefficient below which a motion is
+    admissible at the stop.
+    """
+
+    kind: str
+    contacts: int
+    critical_mu: float | None
+    pole: float | None
+    detail: str
+
+
+def _pair_keys(contacts: list[Contact]) -> set[tuple[int, str, int, int]]:
+    return {(c.layer, c.vertex_part, c.vertex, c.edge) for c in contacts}
+
+
+def rigid_stop(design: FaceDesign, state: State, mu: float, damping_ratio: float) -> RigidStop:
+    """Whether the rigid model stops at ``state`` too: a wedge there or a pole of the drive.
+
+    The pole test follows the stop's contacts (:func:`on_contacts`) to
+    :data:`POLE_DISTANCES` before and past the stop, finds the touching pairs again there
+    from the outlines, and asks for the same pairs, one pushing motion before (the drive
+    times the distance constant within :data:`POLE_SPREAD`) and no admissible motion past.
+    At the stop itself the balance is singular and its solution is not used.
+    """
+    contacts = find_contacts(design, state)
+    k = len(contacts)
+    if not contacts:
+        return RigidStop("", 0, None, None, "no contact at the stop")
+    if not admissible_motions(contacts, state, mu, damping_ratio):
+        crit = critical_friction(contacts, state, damping_ratio, hi=mu)
+        below = "none" if crit is None else f"{crit:.4f}"
+        return RigidStop(
+            "wedge", k, crit, None, f"{k} contacts, no motion; motions below mu {below}"
+        )
+    products = []
+    for dist in POLE_DISTANCES:
+        for side in (1.0, -1.0):
+            here, left = on_contacts(design, contacts, state, state.y_m + side * dist)
+            where = f"{dist:g} D {'before' if side > 0 else 'past'} the stop"
+            if left > 1e-3 * TOUCH_GAP or _pair_keys(find_contacts(design, here)) != _pair_keys(
+                contacts
+            ):
+                return RigidStop("", k, None, None, f"other contacts {where}")
+            motions = admissible_motions(find_contacts(design, here), here, mu, damping_ratio)
+            if side < 0:
+                if motions:
+                    return RigidStop("", k, None, None, f"a motion is admissible {where}")
+                continue
+            if len(distinct_rates(motions)) != 1 or any(m.drive >= 0 for m in motions):
+                return RigidStop("", k, None, None, f"not one pushing motion {where}")
+            products.append(max(-m.drive for m in motions) * dist)
+    if max(products) > POLE_SPREAD * min(products):
+        return RigidStop("", k, None, None, "the drive does not grow as 1 / distance")
+    pole = float(np.mean(products))
+    return RigidStop(
+        "pole",
+        k,
+        None,
+        pole,
+        f"{k} contacts, drive {-pole:.3g} / distance before the stop, no motion past it",
+    )
 
 
 @dataclass(frozen=True)

@@ -64,6 +64,55 @@ def test_docs_accuracy_md_is_todays_comparison(regenerated: tuple[int, str]) -> 
     assert _generated_part(DOC.read_text()) == _generated_part(text)
 
 
+@pytest.fixture(scope="module")
+def s_with_friction() -> tuple[Any, Any]:
+    """S 0.0625, 1 with mu 0.2 against its kept engine map, before rigid jams are dropped."""
+    design = next(d for d in table.DESIGNS if d.label == "S 0.0625, 1, mu 0.2")
+    path = table.stored_path(table.STORE, design, 21)
+    assert path is not None
+    return design, table.compare(design, store.load(path), None)
+
+
+def test_rigid_jams_leave_the_disagreements_and_are_counted_ambiguous(
+    s_with_friction: tuple[Any, Any],
+) -> None:
+    design, r = s_with_friction
+    first_two = replace(r, disagreements=r.disagreements[:2])
+    dropped, jams = table.drop_rigid_jams(design, first_two)
+    assert [d for d, _ in jams] == list(first_two.disagreements)
+    assert dropped.disagreements == ()
+    assert dropped.n_ambiguous == r.n_ambiguous + 2
+    assert all(dropped.ambiguous[d.index] and not r.ambiguous[d.index] for d, _ in jams)
+    assert {v.kind for _, v in jams} <= {"wedge", "pole"}
+
+
+def test_a_false_seated_is_never_dropped(s_with_friction: tuple[Any, Any]) -> None:
+    from xface_core import Outcome
+
+    design, r = s_with_friction
+    d = r.disagreements[0]
+    seated = replace(d, xface=replace(d.xface, outcome=Outcome.SEATED))
+    dropped, jams = table.drop_rigid_jams(design, replace(r, disagreements=(seated,)))
+    assert jams == ()
+    assert dropped.disagreements == (seated,)
+
+
+def test_a_false_failure_that_stops_where_the_rigid_model_moves_on_is_kept(
+    s_with_friction: tuple[Any, Any],
+) -> None:
+    # The same cell's xface end moved 0.01 D up along its own contacts: a motion goes on.
+    coulomb = importlib.import_module("two_contact_coulomb")
+    design, r = s_with_friction
+    d = r.disagreements[0]
+    stop = coulomb.State(d.xface.phi_b, d.xface.phi_m, d.x0, d.xface.y_m)
+    contacts = coulomb.find_contacts(design.build(), stop)
+    up, _ = coulomb.on_contacts(design.build(), contacts, stop, stop.y_m + 0.01)
+    moved = replace(d, xface=replace(d.xface, phi_b=up.phi_b, phi_m=up.phi_m, y_m=up.y_m))
+    dropped, jams = table.drop_rigid_jams(design, replace(r, disagreements=(moved,)))
+    assert jams == ()
+    assert dropped.disagreements == (moved,)
+
+
 def test_the_text_after_the_marker_is_kept(tmp_path: Path) -> None:
     kept = tmp_path / "engine_maps"
     kept.mkdir()
@@ -121,3 +170,46 @@ def test_an_interrupted_map_resumes_from_its_journal_which_goes_once_stored(
     assert evidence.engine.step_history == whole.engine.step_history
     assert evidence.engine.sharp == whole.engine.sharp
     assert evidence.engine.rounded == whole.engine.rounded
+
+
+def _exit_and_err(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str]:
+    rc = table.main(argv)
+    return rc, capsys.readouterr().err
+
+
+def test_a_damaged_kept_map_is_a_clear_error_not_a_traceback(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    design = table.Design("X", 1.0, 3.0)
+    damaged = tmp_path / table.store_path(table.STORE, design, 21).name
+    damaged.write_bytes(b"PK\x03\x04 not a zip after all")
+    argv = ["--only", "X 1 3", "--stored-only", "--quiet", "--store", str(tmp_path)]
+    rc, err = _exit_and_err(argv, capsys)
+    assert rc == 2
+    assert err.startswith("accuracy_table: error: engine map file ")
+    assert damaged.name in err
+    assert "Traceback" not in err
+
+
+def test_a_damaged_journal_is_a_clear_error_before_the_engine_runs(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    design = table.Design("X", 1.0, 3.0)
+    journal = table.journal_path(tmp_path, design, 3)
+    journal.write_text('{"format": "not a journal"}\n')
+    rc, err = _exit_and_err(["--only", "X 1 3", "--grid", "3", "--store", str(tmp_path)], capsys)
+    assert rc == 2
+    assert err.startswith("accuracy_table: error: ")
+    assert journal.name in err
+    assert not table.store_path(tmp_path, design, 3).exists()  # nothing ran, nothing kept
+
+
+def test_an_unwritable_out_is_a_clear_error(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "no such folder" / "accuracy.md"
+    argv = ["--only", "X 1 3", "--stored-only", "--quiet", "--out", str(out)]
+    rc, err = _exit_and_err(argv, capsys)
+    assert rc == 2
+    assert "accuracy_table: error: " in err
+    assert "no such folder" in err

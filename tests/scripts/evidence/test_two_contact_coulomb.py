@@ -175,3 +175,69 @@ def test_xface_stop_on_x_1_3_is_a_wedge_at_its_friction_and_slides_below_it() ->
     assert (m.w_b, m.w_m) == pytest.approx((3.204, -3.177), abs=1e-3)
     assert m.drive < 0.0  # the drive pushes
     assert 0.28 < coulomb.critical_friction(contacts, X13_STOP, 1.0, hi=0.3) < 0.3
+
+
+#: Where xface stops S H/D 0.0625 r_p 1, mu 0.2, x0 -0.6 D, theta0 0.15 pi (predict at
+#: 43ba2f6): the faces aligned, turning together on two held pairs of their flanks.
+S_STOP = State(phi_b=0.2824204554112048, phi_m=0.28242045541120386, x0=-0.6, y_m=1.9783354924664334)
+
+
+def _s_face() -> Any:
+    from xface_core import s_face
+
+    return s_face(0.0625, 1.0)
+
+
+def test_pair_gap_follows_a_found_pair_to_another_state() -> None:
+    face = _s_face()
+    contacts = coulomb.find_contacts(face, S_STOP)
+    assert [coulomb.pair_gap(face, S_STOP, c) for c in contacts] == pytest.approx(
+        [c.gap for c in contacts], abs=1e-15
+    )
+    moved = State(S_STOP.phi_b + 0.01, S_STOP.phi_m - 0.02, S_STOP.x0, S_STOP.y_m + 0.03)
+    wide = {c.label: c.gap for c in coulomb.find_contacts(face, moved, touch=0.5)}
+    for c in contacts:
+        assert coulomb.pair_gap(face, moved, c) == pytest.approx(wide[c.label], abs=1e-15)
+        assert abs(wide[c.label]) > 1e-4  # the move opened or closed the pair
+
+
+@pytest.mark.parametrize("rise", [3e-2, 1e-3, -1e-3])
+def test_on_contacts_keeps_every_pair_closed_at_another_height(rise: float) -> None:
+    face = _s_face()
+    contacts = coulomb.find_contacts(face, S_STOP)
+    here, left = coulomb.on_contacts(face, contacts, S_STOP, S_STOP.y_m + rise)
+    assert left < 1e-13
+    assert max(abs(coulomb.pair_gap(face, here, c)) for c in contacts) == left
+    assert here.y_m == S_STOP.y_m + rise
+    assert here.x0 == S_STOP.x0
+    assert abs(here.phi_m - S_STOP.phi_m) > 1e-4  # the parts had to turn to keep touching
+
+
+def test_xface_stop_on_s_0_0625_is_a_pole_of_the_drive() -> None:
+    verdict = coulomb.rigid_stop(_s_face(), S_STOP, 0.2, 1.0)
+    assert verdict.kind == "pole"
+    assert verdict.contacts == 2
+    assert verdict.pole is not None
+    assert 0.95 < verdict.pole < 1.0
+
+
+def test_at_a_lower_friction_the_same_state_is_no_stop() -> None:
+    # At mu 0.1 the faces slide on through this state (xface seats from the same start).
+    verdict = coulomb.rigid_stop(_s_face(), S_STOP, 0.1, 1.0)
+    assert verdict.kind == ""
+    assert verdict.detail == "a motion is admissible 0.0001 D past the stop"
+
+
+def test_a_state_before_the_stop_is_no_stop() -> None:
+    face = _s_face()
+    before, _ = coulomb.on_contacts(face, coulomb.find_contacts(face, S_STOP), S_STOP, 1.99)
+    assert coulomb.rigid_stop(face, before, 0.2, 1.0).kind == ""
+
+
+def test_xface_stop_on_x_1_3_is_a_wedge_for_rigid_stop() -> None:
+    from xface_core import x_face
+
+    verdict = coulomb.rigid_stop(x_face(1.0, 3.0), X13_STOP, 0.3, 1.0)
+    assert verdict.kind == "wedge"
+    assert verdict.critical_mu is not None
+    assert 0.28 < verdict.critical_mu < 0.3
