@@ -69,3 +69,38 @@ def test_nodes_where_the_two_references_differ_are_not_converged() -> None:
     check = _finals([4, 4, 4, 4, 1], [0.1 + 5e-7, 0.1 + 2e-6, 0.1 - 0.3, 0.0, np.nan])
     # Within the agreement; off by 2e-6; off by 0.3 (a jam passed); another outcome; no state.
     assert bench._unconverged_nodes(ref, check).tolist() == [False, True, True, True, False]
+
+
+def test_the_references_are_rows_of_the_bench_to_the_last_bit() -> None:
+    from xface_core.physics import DEFAULT_SETTINGS
+
+    assert bench.tolerances_at(DEFAULT_SETTINGS.rtol) == DEFAULT_SETTINGS
+    assert bench.tolerances_at(1e-11) == bench.REFERENCE_SETTINGS
+    assert bench.REFERENCE_SETTINGS.event_tol == 1e-15
+    assert bench.tolerances_at(1e-10) == bench.REFERENCE_CHECK_SETTINGS
+
+
+def _rows(mismatches: dict[float, int], ms: dict[float, float]) -> list[dict[str, object]]:
+    rows: list[dict[str, object]] = [
+        {"rtol": r, "symmetry": True, "mismatch_other": m, "ms_per_map": ms[r]}
+        for r, m in mismatches.items()
+    ]
+    # The row without the symmetry skip (its mismatches are never counted).
+    rows.append({"rtol": 1e-8, "symmetry": False, "mismatch_other": 5, "ms_per_map": 0.1})
+    return rows
+
+
+def test_the_loosest_clean_setting_is_picked_by_mismatches_not_by_noisy_times() -> None:
+    times = {1e-2: 5.0, 1e-4: 9.0, 1e-6: 7.0, 1e-8: 3.0}  # the tightest measured fastest
+    assert bench.loosest_clean_rtol(_rows(dict.fromkeys(times, 0), times)) == 1e-2
+
+
+def test_a_mismatch_stops_the_loosening_even_if_looser_rows_are_clean_again() -> None:
+    times = {1e-2: 5.0, 1e-4: 9.0, 1e-6: 7.0, 1e-8: 3.0}
+    rows = _rows({1e-2: 0, 1e-4: 2, 1e-6: 0, 1e-8: 0}, times)
+    assert bench.loosest_clean_rtol(rows) == 1e-6
+
+
+def test_no_setting_is_picked_when_the_tightest_has_mismatches() -> None:
+    times = {1e-2: 5.0, 1e-8: 3.0}
+    assert bench.loosest_clean_rtol(_rows({1e-2: 0, 1e-8: 1}, times)) is None
