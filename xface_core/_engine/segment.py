@@ -137,6 +137,16 @@ def begin_segment(
 
 
 @njit_inline
+def _error_scales(opts: Options, step: Step, nb: float, nm: float) -> tuple[float, float]:
+    """The error allowed on phi_B and phi_M (rad) in the trial step from ``step``'s start to
+    ``(nb, nm)``: atol plus rtol times the larger magnitude of the angle's two ends."""
+    return (
+        opts.atol + opts.rtol * max(abs(step.phi_b), abs(nb)),
+        opts.atol + opts.rtol * max(abs(step.phi_m), abs(nm)),
+    )
+
+
+@njit_inline
 def trial_step(opts: Options, seg: Segment, step: Step) -> tuple[float, float, float, float, bool]:
     """Integrate the trial step: ``(phi_b, phi_m, err, turn, ok)`` with the error relative
     to the tolerances (accept at <= 1) and the largest rotation in the step (rad)."""
@@ -144,8 +154,7 @@ def trial_step(opts: Options, seg: Segment, step: Step) -> tuple[float, float, f
     keep_trial_dense(seg, step)
     if not ok:
         return nb, nm, math.inf, 0.0, False
-    sc_b = opts.atol + opts.rtol * max(abs(step.phi_b), abs(nb))
-    sc_m = opts.atol + opts.rtol * max(abs(step.phi_m), abs(nm))
+    sc_b, sc_m = _error_scales(opts, step, nb, nm)
     err = max(abs(eb) / sc_b, abs(em) / sc_m)
     turn = max(abs(nb - step.phi_b), abs(nm - step.phi_m))
     # Cap the rotation per step: near a turning point of the contact path the rate grows
@@ -175,8 +184,7 @@ def error_at_roundoff(
     if not (pins_path(seg.held.n_active, seg.held.winv_b, seg.held.mu) and has_dense(seg, step)):
         return err
     floor = PINNED_ROUNDOFF * max(1.0, turn / step.h)
-    sc_b = opts.atol + opts.rtol * max(abs(step.phi_b), abs(nb))
-    sc_m = opts.atol + opts.rtol * max(abs(step.phi_m), abs(nm))
+    sc_b, sc_m = _error_scales(opts, step, nb, nm)
     if floor <= min(sc_b, sc_m):
         return err
     v0b, v0m, _, _ = start_velocity(seg, step)

@@ -180,7 +180,7 @@ INLINED = {
     # time, bit for bit, docs/notes/2026-11-30-scan-stages-inlined.md).
     "scan._active_events", "scan._slip_events", "scan._contact_events",
     "scan._contacts_before", "scan._crossed_at_event", "scan.find_event",
-    "segment.trial_step",
+    "segment.trial_step", "segment._error_scales",
 }  # fmt: skip
 
 
