@@ -206,7 +206,13 @@ def _feasible_point(
 
     def ok(z: FloatArray) -> bool:
         slack_tol = REL_TOL * max(scale, float(np.abs(z).max(initial=0.0)), 1.0) * 1e3
-        return bool(np.all(g_in @ z - h_in >= -slack_tol))
+        # Each equality to its own scale too (its backward error): where the balance is
+        # singular (a pole of the forces), a point far along a direction that is null only to
+        # round-off met the global tolerance with a gap rate of -0.54.
+        row_tol = REL_TOL * 1e3 * (np.abs(a_eq) @ np.abs(z) + np.abs(b_eq) + 1.0)
+        return bool(
+            np.all(g_in @ z - h_in >= -slack_tol) and np.all(np.abs(a_eq @ z - b_eq) <= row_tol)
+        )
 
     if dim == 0 or len(h_in) == 0:
         return (z0 if ok(z0) else None), dim
@@ -452,52 +458,58 @@ def _pair_keys(contacts: list[Contact]) -> set[tuple[int, str, int, int]]:
     return {(c.layer, c.vertex_part, c.vertex, c.edge) for c in contacts}
 
 
-def rigid_stop(design: FaceDesign, state: State, mu: float, damping_ratio: float) -> RigidStop:
-    """Whether the rigid model stops at ``state`` too: a wedge there or a pole of the drive.
+def _pole(
+    design: FaceDesign, contacts: list[Contact], state: State, mu: float, damping_ratio: float
+) -> tuple[float | None, str]:
+    """``(c, "")`` when the drive grows as ``c / distance`` up to ``state`` on its contacts
+    and no motion is admissible past it, else ``(None, why not)``."""
+    products = []
+    for dist in POLE_DISTANCES:
+        for side in (1.0, -1.0):
+            here, left = on_contacts(design, contacts, state, state.y_m + side * dist)
+            where = f"{dist:g} D {'before' if side > 0 else 'past'} the stop"
+            found = find_contacts(design, here)
+            if left > 1e-3 * TOUCH_GAP or _pair_keys(found) != _pair_keys(contacts):
+                return None, f"other contacts {where}"
+            motions = admissible_motions(found, here, mu, damping_ratio)
+            if side < 0:
+                if motions:
+                    return None, f"a motion is admissible {where}"
+                continue
+            if len(distinct_rates(motions)) != 1 or any(m.drive >= 0 for m in motions):
+                return None, f"not one pushing motion {where}"
+            products.append(max(-m.drive for m in motions) * dist)
+    if max(products) > POLE_SPREAD * min(products):
+        return None, "the drive does not grow as 1 / distance"
+    return float(np.mean(products)), ""
 
-    The pole test follows the stop's contacts (:func:`on_contacts`) to
+
+def rigid_stop(design: FaceDesign, state: State, mu: float, damping_ratio: float) -> RigidStop:
+    """Whether the rigid model stops at ``state`` too: a pole of the drive there, or a wedge.
+
+    The pole test (first: at a pole the balance at the stop itself is singular, and no motion
+    is admissible there either) follows the stop's contacts (:func:`on_contacts`) to
     :data:`POLE_DISTANCES` before and past the stop, finds the touching pairs again there
     from the outlines, and asks for the same pairs, one pushing motion before (the drive
     times the distance constant within :data:`POLE_SPREAD`) and no admissible motion past.
-    At the stop itself the balance is singular and its solution is not used.
+    Else a wedge is a stop where no motion is admissible (typically where a contact arrived:
+    the pairs before it are others).
     """
     contacts = find_contacts(design, state)
     k = len(contacts)
     if not contacts:
         return RigidStop("", 0, None, None, "no contact at the stop")
+    pole, why_not = _pole(design, contacts, state, mu, damping_ratio)
+    if pole is not None:
+        detail = f"{k} contacts, drive {-pole:.3g} / distance before the stop, no motion past it"
+        return RigidStop("pole", k, None, pole, detail)
     if not admissible_motions(contacts, state, mu, damping_ratio):
         crit = critical_friction(contacts, state, damping_ratio, hi=mu)
         below = "none" if crit is None else f"{crit:.4f}"
         return RigidStop(
             "wedge", k, crit, None, f"{k} contacts, no motion; motions below mu {below}"
         )
-    products = []
-    for dist in POLE_DISTANCES:
-        for side in (1.0, -1.0):
-            here, left = on_contacts(design, contacts, state, state.y_m + side * dist)
-            where = f"{dist:g} D {'before' if side > 0 else 'past'} the stop"
-            if left > 1e-3 * TOUCH_GAP or _pair_keys(find_contacts(design, here)) != _pair_keys(
-                contacts
-            ):
-                return RigidStop("", k, None, None, f"other contacts {where}")
-            motions = admissible_motions(find_contacts(design, here), here, mu, damping_ratio)
-            if side < 0:
-                if motions:
-                    return RigidStop("", k, None, None, f"a motion is admissible {where}")
-                continue
-            if len(distinct_rates(motions)) != 1 or any(m.drive >= 0 for m in motions):
-                return RigidStop("", k, None, None, f"not one pushing motion {where}")
-            products.append(max(-m.drive for m in motions) * dist)
-    if max(products) > POLE_SPREAD * min(products):
-        return RigidStop("", k, None, None, "the drive does not grow as 1 / distance")
-    pole = float(np.mean(products))
-    return RigidStop(
-        "pole",
-        k,
-        None,
-        pole,
-        f"{k} contacts, drive {-pole:.3g} / distance before the stop, no motion past it",
-    )
+    return RigidStop("", k, None, None, why_not)
 
 
 @dataclass(frozen=True)

@@ -241,3 +241,14 @@ def test_xface_stop_on_x_1_3_is_a_wedge_for_rigid_stop() -> None:
     assert verdict.kind == "wedge"
     assert verdict.critical_mu is not None
     assert 0.28 < verdict.critical_mu < 0.3
+
+
+def test_at_a_pole_no_member_of_a_near_null_family_passes_for_a_motion() -> None:
+    # At the stop the balance is singular: a point far along a direction null only to
+    # round-off (forces of 1e12) met a tolerance relative to the whole solution with a gap
+    # rate of -0.54; every equation is now held to its own scale.
+    face = _s_face()
+    contacts = coulomb.find_contacts(face, S_STOP)
+    assert coulomb.admissible_motions(contacts, S_STOP, 0.2, 1.0) == []
+    verdict = coulomb.rigid_stop(face, S_STOP, 0.2, 1.0)
+    assert verdict.kind == "pole"  # the pole test comes first
