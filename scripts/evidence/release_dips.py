@@ -32,12 +32,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
 from two_contact_coulomb import (
-    Contact,
     Motion,
     State,
     admissible_motions,
     find_contacts,
-    on_contacts,
+    same_contacts_at,
 )
 
 from xface_core import FaceDesign, make_face, predict
@@ -71,10 +70,6 @@ def keeps_contacts(motions: list[Motion]) -> bool:
     )
 
 
-def _key(contacts: list[Contact]) -> set[tuple[int, str, int, int]]:
-    return {(c.layer, c.vertex_part, c.vertex, c.edge) for c in contacts}
-
-
 @dataclass(frozen=True)
 class Dip:
     """A state inside an accepted step where the held contacts cannot all stay closed."""
@@ -106,10 +101,10 @@ def audit(
             continue  # another pair touches too: not a plain held set
         for j in range(1, inner + 1):
             y = y0 + (y1 - y0) * j / (inner + 1)
-            here, left = on_contacts(design, contacts, start, y)
-            found = find_contacts(design, here)
-            if left > 1e-10 or _key(found) != _key(contacts):
+            followed = same_contacts_at(design, contacts, start, y)
+            if followed is None:
                 break  # the held pairs cannot all touch here, or another pair does
+            here, found = followed
             checked += 1
             if not keeps_contacts(admissible_motions(found, here, mu, ratio)):
                 dips.append(Dip(i, y, k))

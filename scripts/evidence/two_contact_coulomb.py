@@ -458,6 +458,20 @@ def _pair_keys(contacts: list[Contact]) -> set[tuple[int, str, int, int]]:
     return {(c.layer, c.vertex_part, c.vertex, c.edge) for c in contacts}
 
 
+def same_contacts_at(
+    design: FaceDesign, contacts: list[Contact], state: State, y_m: float
+) -> tuple[State, list[Contact]] | None:
+    """The state at pivot height ``y_m`` on ``contacts`` (:func:`on_contacts`) with the
+    touching pairs found there again from the outlines, or None when those are not exactly
+    the pairs of ``contacts`` (they cannot all touch there, to 1e-3 of TOUCH_GAP, or another
+    pair does)."""
+    here, left = on_contacts(design, contacts, state, y_m)
+    found = find_contacts(design, here)
+    if left > 1e-3 * TOUCH_GAP or _pair_keys(found) != _pair_keys(contacts):
+        return None
+    return here, found
+
+
 def _pole(
     design: FaceDesign, contacts: list[Contact], state: State, mu: float, damping_ratio: float
 ) -> tuple[float | None, str]:
@@ -466,11 +480,11 @@ def _pole(
     products = []
     for dist in POLE_DISTANCES:
         for side in (1.0, -1.0):
-            here, left = on_contacts(design, contacts, state, state.y_m + side * dist)
             where = f"{dist:g} D {'before' if side > 0 else 'past'} the stop"
-            found = find_contacts(design, here)
-            if left > 1e-3 * TOUCH_GAP or _pair_keys(found) != _pair_keys(contacts):
+            followed = same_contacts_at(design, contacts, state, state.y_m + side * dist)
+            if followed is None:
                 return None, f"other contacts {where}"
+            here, found = followed
             motions = admissible_motions(found, here, mu, damping_ratio)
             if side < 0:
                 if motions:
@@ -503,11 +517,11 @@ def rigid_stop(design: FaceDesign, state: State, mu: float, damping_ratio: float
     if pole is not None:
         detail = f"{k} contacts, drive {-pole:.3g} / distance before the stop, no motion past it"
         return RigidStop("pole", k, None, pole, detail)
-    if not admissible_motions(contacts, state, mu, damping_ratio):
-        crit = critical_friction(contacts, state, damping_ratio, hi=mu)
-        below = "none" if crit is None else f"{crit:.4f}"
+    # None: a motion is admissible at the stop, at mu itself.
+    crit = critical_friction(contacts, state, damping_ratio, hi=mu)
+    if crit is not None:
         return RigidStop(
-            "wedge", k, crit, None, f"{k} contacts, no motion; motions below mu {below}"
+            "wedge", k, crit, None, f"{k} contacts, no motion; motions below mu {crit:.4f}"
         )
     return RigidStop("", k, None, None, why_not)
 

@@ -171,7 +171,7 @@ FLAT_GAP = 1e-14
 #: rad per (rad/D): how closely a state solved on contacts that pin the path is known, per
 #: unit of its rate. The gaps carry about FLAT_GAP of round-off, and the angles that zero
 #: them that over the constraints' smallest singular value, which near a fold of the path
-#: falls as the rate grows (segment.trial_step: no step is asked to be more accurate).
+#: falls as the rate grows (segment.error_at_roundoff: no step is asked to be more accurate).
 PINNED_ROUNDOFF = FLAT_GAP
 CUT_DEPTH = 1e-7  # D: deeper than this, a jump to a fold cut into a contact
 #: rad per accepted step: near a fold of the contact path the rate grows without bound and a
