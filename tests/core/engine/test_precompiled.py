@@ -32,11 +32,11 @@ def _env(shipped: Path, numba_cache: Path) -> dict[str, str]:
     return env
 
 
-def _run(code: str, shipped: Path, numba_cache: Path) -> dict[str, Any]:
-    """Run ``code`` in a fresh interpreter with the build in ``shipped`` and an empty numba
-    cache; the JSON it prints last."""
+def _run(code: str, shipped: Path, numba_cache: Path, *argv: str) -> dict[str, Any]:
+    """Run ``code`` (with ``argv`` in sys.argv[1:]) in a fresh interpreter with the build in
+    ``shipped`` and an empty numba cache; the JSON it prints last."""
     done = subprocess.run(
-        [sys.executable, "-c", textwrap.dedent(code)],
+        [sys.executable, "-c", textwrap.dedent(code), *argv],
         env=_env(shipped, numba_cache),
         cwd=ROOT,
         capture_output=True,
@@ -229,3 +229,41 @@ def test_the_warm_up_covers_what_the_library_calls(shipped_build: Path, tmp_path
     probabilities compile nothing more: a fresh install answers them all warm."""
     result = _run(_WIDE_USE, shipped_build, tmp_path / "numba")
     assert result == {"compiled": {}}
+
+
+_ANSWERS = """
+    import json, sys
+    import numpy as np
+    if sys.argv[1] == "refreshed":
+        from numba.core.registry import cpu_target
+        cpu_target.target_context.refresh()  # what numba's own load_overload does first
+    import xface_core as xf
+    x = xf.x_face(0.25, 2.0)
+    p = xf.predict(x, 0.3, 0.2, margins=True)
+    rough = xf.Physics(damping_ratio=2.0, friction=0.2)
+    q = xf.predict(xf.v_face(0.5, 1.0), 0.1, -0.3, physics=rough)
+    b = xf.predict_batch(xf.s_face(0.5, 1.0), np.linspace(-1, 1, 41), 0.3, threads=1)
+    print(json.dumps({
+        "registries": "numba.np.linalg" in sys.modules,
+        "p": [int(p.outcome), p.phi_b, p.phi_m, p.margins.lateral_minus,
+              p.margins.angle_plus, p.path.descent.tolist()],
+        "q": [int(q.outcome), q.phi_b, q.phi_m, q.path.phi_m.tolist()],
+        "b": [np.asarray(b.outcome).tolist(), np.asarray(b.phi_m).tolist()],
+    }))
+"""
+
+
+def test_a_cached_kernel_loads_without_numbas_compile_registries(
+    shipped_build: Path, tmp_path: Path
+) -> None:
+    """Loading the engine brings up numba's runtime only, not the registries a compile
+    needs (ShippedFunctionCache.load_overload), and its answers are those of a process whose
+    contexts were refreshed first, to the last bit."""
+
+    def answers(how: str) -> dict[str, Any]:
+        return _run(_ANSWERS, shipped_build, tmp_path / how, how)
+
+    lean, refreshed = answers("lean"), answers("refreshed")
+    assert lean.pop("registries") is False
+    assert refreshed.pop("registries") is True
+    assert lean == refreshed
