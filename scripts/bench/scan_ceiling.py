@@ -1,0 +1,250 @@
+#!/usr/bin/env python3
+"""The ceiling of any cheaper new-contact scan: the engine with an oracle that scans, per
+cell, only the pairs that turn out to matter, against the same engine scanning every pair.
+
+    python scripts/bench/scan_ceiling.py                    # HEAD: a 2-minute build, then 1 min
+    python scripts/bench/scan_ceiling.py --no-turn-cap      # and no cap on a step's turn
+
+Issue 37 asks 41 x 41 maps at 0.4 of 93b694f's time, and the notes found the new-contact scan
+to be most of a step's cycles. Any redesign of that scan (budgets per segment, certificates,
+a broad phase) can at best skip every pair that does not matter. This script measures that
+best case instead of estimating it:
+
+1. ``git archive COMMIT xface_core`` into a temporary folder, edited (:func:`apply_oracle`):
+   two columns more in the pair table, "scan this pair" and "this pair mattered"; a pair
+   matters when it is active in an interval, is the pair of a new-contact event, or has
+   two corners crossed at a step's end (what starts the fine samples). The new-contact scan
+   treats a pair not to be scanned as asleep (so do the dip search, the check at an event's
+   state and the corner check, which skip sleeping pairs); every other stage is unchanged.
+   ``--no-turn-cap`` also sets ``records.MAX_TURN`` to 3 rad (no cap in practice: unsafe,
+   docs/notes/2026-11-30-what-bounds-the-speed-goal.md), the step count of the error
+   control alone.
+2. It is compiled into a numba cache of its own (no precompiled build), for this host.
+3. Per design (X 0.25/2, X 1/1, V 0.5/1, S 0.5/1; every cell of the 41 x 41 grid, one
+   thread, the default physics): one recording pass writes each cell's pairs that mattered;
+   then, ``--rounds`` times, the whole grid scanning every pair ("every pair") and scanning
+   each cell's recorded pairs only ("oracle").
+
+Prints per design the pairs per cell, the best times, their ratio, and whether the outcomes
+and step counts of both passes equal those of the recording pass (the oracle's set suffices
+when they do). Exit 1 if a build, a run or an edit fails. ``--keep`` keeps the folder.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shutil
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+
+#: (file under xface_core/, text found once, its replacement)
+EDITS: tuple[tuple[str, str, str], ...] = (
+    (
+        "_engine/pairs.py",
+        "PAIR_COLUMNS = 24\n",
+        "PAIR_COLUMNS = 26  # 24: scan this pair (oracle), 25: it mattered (recorded)\n",
+    ),
+    (
+        "contact.py",
+        "    out[:, :, COL_LENGTH_AFTER] = length_after[:, None]\n",
+        (
+            "    out[:, :, COL_LENGTH_AFTER] = length_after[:, None]\n"
+            "    out[:, :, 24] = 1.0\n    out[:, :, 25] = 0.0\n"
+        ),
+    ),
+    (
+        "_engine/scan.py",
+        "        travel = _travel(row, step.h, turn)\n        if sleep[i, 0] > travel:\n",
+        (
+            "        travel = _travel(row, step.h, turn)\n"
+            "        if row[24] == 0.0:\n"
+            "            sleep[i, 1] = travel\n"
+            "            sleep[i, 2] = 1.0\n"
+            "            continue\n"
+            "        if sleep[i, 0] > travel:\n"
+        ),
+    ),
+    (
+        "_engine/scan.py",
+        "(cb0, sb0, cm0, sm0, step.y_m, step.phi_b, step.phi_m))  # fmt: skip\n",
+        (
+            "(cb0, sb0, cm0, sm0, step.y_m, step.phi_b, step.phi_m))  # fmt: skip\n"
+            "            if crossed:\n                row[25] = 1.0\n"
+        ),
+    ),
+    (
+        "_engine/simulate.py",
+        "        if run.n_active == 0:\n            approach(",
+        (
+            "        for k in range(run.n_active):\n"
+            "            model.pairs[work.act[k], 25] = 1.0\n"
+            "        if run.n_active == 0:\n            approach("
+        ),
+    ),
+    (
+        "_engine/segment.py",
+        "    elif kind == E_CONTACT:\n",
+        "    elif kind == E_CONTACT:\n        seg.held.pairs[ev.pair, 25] = 1.0\n",
+    ),
+    (
+        "_engine/__init__.py",
+        "    simulate_many,\n    simulate_one,\n",
+        "    simulate_many,\n    simulate_many_oracle,\n    simulate_one,\n",
+    ),
+)
+
+NO_TURN_CAP = ("_engine/records.py", "\nMAX_TURN = 0.02\n", "\nMAX_TURN = 3.0\n")
+
+#: Appended to the copy's simulate.py: the grid with a per-cell mask of pairs to scan.
+ORACLE_ENTRY = '''
+
+@njit_cached
+def simulate_many_oracle(
+    model: Model, opts: Options, xs: FloatArray, ts: FloatArray, ys: FloatArray,
+    masks: FloatArray, record: bool,
+) -> npt.NDArray[np.void]:
+    """simulate over flat poses scanning, per pose k, the pairs with masks[k] = 1; with
+    ``record`` every pair is scanned and masks[k] receives the pairs that mattered."""
+    n = xs.shape[0]
+    runs = np.zeros(n, dtype=RUN_DTYPE)
+    path = np.zeros((1, 4))
+    path_pairs = np.full((1, 4), -1, dtype=np.int64)
+    work = new_work(model, opts)
+    table = model.pairs
+    for k in range(n):
+        for i in range(table.shape[0]):
+            table[i, 24] = 1.0 if record else masks[k, i]
+            table[i, 25] = 0.0
+        reset_work(work)
+        simulate(model, opts, xs[k], ts[k], ys[k], runs[k], path, path_pairs, work)
+        if record:
+            for i in range(table.shape[0]):
+                masks[k, i] = table[i, 25]
+    return runs
+'''
+
+#: Run in the copy: prints one JSON line per design.
+DRIVER = """
+import json, sys, time
+import numpy as np
+import xface_core as xf
+from xface_core import _engine, runner
+from xface_core.maps.grids import theta_grid, x0_grid
+rounds = int(sys.argv[1])
+designs = [("X 0.25/2", xf.x_face(0.25, 2.0)), ("X 1/1", xf.x_face(1.0, 1.0)),
+           ("V 0.5/1", xf.v_face(0.5, 1.0)), ("S 0.5/1", xf.s_face(0.5, 1.0))]
+gx, gt = np.meshgrid(x0_grid(41), theta_grid(41), indexing="ij")
+xs, ts = np.ascontiguousarray(gx.ravel()), np.ascontiguousarray(gt.ravel())
+opts = _engine.make_options(xf.Physics())
+for name, design in designs:
+    model = runner.engine_model(design)
+    ys = np.ascontiguousarray(runner.start_heights(design, ts))
+    n, m = xs.size, model.pairs.shape[0]
+    masks = np.zeros((n, m))
+    rec = _engine.simulate_many_oracle(model, opts, xs, ts, ys, masks, True)
+    every = np.ones((n, m))
+    t_every, t_oracle = [], []
+    for _ in range(rounds):
+        t = time.perf_counter()
+        a = _engine.simulate_many_oracle(model, opts, xs, ts, ys, every, False)
+        t_every.append(time.perf_counter() - t)
+        t = time.perf_counter()
+        b = _engine.simulate_many_oracle(model, opts, xs, ts, ys, masks, False)
+        t_oracle.append(time.perf_counter() - t)
+    same = all(
+        bool((r["outcome"] == rec["outcome"]).all() and (r["steps"] == rec["steps"]).all())
+        for r in (a, b)
+    )
+    print(json.dumps({"design": name, "pairs": m, "kept_mean": float(masks.sum(1).mean()),
+                      "kept_max": int(masks.sum(1).max()), "every_ms": min(t_every) * 1e3,
+                      "oracle_ms": min(t_oracle) * 1e3, "steps": int(rec["steps"].sum()),
+                      "same": same}))
+"""
+
+
+def apply_oracle(tree: Path, *, no_turn_cap: bool = False) -> None:
+    """Edit the copy of ``xface_core`` in ``tree`` (its parent folder) as described above;
+    ValueError naming the edit whose text is not found exactly once."""
+    edits = (*EDITS, NO_TURN_CAP) if no_turn_cap else EDITS
+    for name, old, new in edits:
+        path = tree / "xface_core" / name
+        text = path.read_text()
+        if text.count(old) != 1:
+            raise ValueError(f"{name}: the text to edit is found {text.count(old)} times: {old!r}")
+        path.write_text(text.replace(old, new))
+    simulate = tree / "xface_core" / "_engine" / "simulate.py"
+    simulate.write_text(simulate.read_text() + ORACLE_ENTRY)
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--commit", default="HEAD", help="the engine to measure (default HEAD)")
+    parser.add_argument("--rounds", type=int, default=5, help="timed passes per variant")
+    parser.add_argument("--no-turn-cap", action="store_true", help="also lift MAX_TURN")
+    parser.add_argument("--keep", action="store_true", help="keep the temporary folder")
+    args = parser.parse_args()
+    if args.rounds < 1:
+        parser.error("--rounds must be at least 1")
+    folder = Path(tempfile.mkdtemp(prefix="scan_ceiling."))
+    try:
+        archive = subprocess.run(
+            ["git", "-C", str(ROOT), "archive", args.commit, "xface_core"],
+            capture_output=True,
+            check=False,
+        )
+        if archive.returncode != 0:
+            print(f"scan_ceiling: git archive {args.commit}: {archive.stderr.decode().strip()}")
+            return 1
+        subprocess.run(["tar", "-x", "-C", str(folder)], input=archive.stdout, check=True)
+        try:
+            apply_oracle(folder, no_turn_cap=args.no_turn_cap)
+        except ValueError as exc:
+            print(f"scan_ceiling: {exc}")
+            return 1
+        (folder / "empty").mkdir()
+        env = {
+            "PATH": "/usr/bin:/bin",
+            "HOME": str(folder),
+            "PYTHONPATH": str(folder),
+            "XFACE_PRECOMPILED_DIR": str(folder / "empty"),
+            "NUMBA_CACHE_DIR": str(folder / "numba"),
+        }
+        done = subprocess.run(
+            [sys.executable, "-c", DRIVER, str(args.rounds)],
+            env=env,
+            cwd=folder,
+            capture_output=True,
+            text=True,
+            check=False,
+        )
+        if done.returncode != 0:
+            print(f"scan_ceiling: the run failed:\n{done.stderr[-3000:]}")
+            return 1
+        rows = [json.loads(line) for line in done.stdout.splitlines() if line.startswith("{")]
+    finally:
+        if args.keep:
+            print(f"scan_ceiling: kept {folder}")
+        else:
+            shutil.rmtree(folder, ignore_errors=True)
+    cap = "no turn cap (MAX_TURN 3 rad)" if args.no_turn_cap else "the turn cap as committed"
+    print(f"Scan ceiling at {args.commit}, {cap}; best of {args.rounds}, 41 x 41, one thread.\n")
+    print("| design | pairs | scanned per cell (mean, max) | every pair (ms) | oracle (ms) "
+          "| oracle / every | steps | answers as recorded |")  # fmt: skip
+    print("|---|---:|---:|---:|---:|---:|---:|---|")
+    for r in rows:
+        print(
+            f"| {r['design']} | {r['pairs']} | {r['kept_mean']:.2f}, {r['kept_max']} "
+            f"| {r['every_ms']:.2f} | {r['oracle_ms']:.2f} "
+            f"| {r['oracle_ms'] / r['every_ms']:.3f} | {r['steps']} "
+            f"| {'yes' if r['same'] else 'NO'} |"
+        )
+    return 0 if rows else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

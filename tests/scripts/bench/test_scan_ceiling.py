@@ -1,0 +1,45 @@
+"""scripts/bench/scan_ceiling.py edits a copy of the engine into an oracle scan: its edits must
+keep applying to the engine as it is (the run itself builds the engine: minutes, not run
+here)."""
+
+from __future__ import annotations
+
+import py_compile
+import runpy
+import shutil
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[3]
+
+
+def _apply_oracle(tree: Path, *, no_turn_cap: bool = False) -> None:
+    """The script's own ``apply_oracle`` (runpy: the script is not a module of a package)."""
+    namespace = runpy.run_path(str(ROOT / "scripts" / "bench" / "scan_ceiling.py"))
+    namespace["apply_oracle"](tree, no_turn_cap=no_turn_cap)
+
+
+def _copy(tmp_path: Path) -> Path:
+    shutil.copytree(ROOT / "xface_core", tmp_path / "xface_core", ignore=shutil.ignore_patterns(
+        "__pycache__", "_compiled"))  # fmt: skip
+    return tmp_path
+
+
+@pytest.mark.parametrize("no_turn_cap", [False, True])
+def test_the_edits_apply_to_the_engine_and_compile(tmp_path: Path, no_turn_cap: bool) -> None:
+    tree = _copy(tmp_path)
+    _apply_oracle(tree, no_turn_cap=no_turn_cap)
+    engine = tree / "xface_core" / "_engine"
+    for path in (*engine.glob("*.py"), tree / "xface_core" / "contact.py"):
+        py_compile.compile(str(path), doraise=True)
+    assert "def simulate_many_oracle(" in (engine / "simulate.py").read_text()
+    assert ("MAX_TURN = 3.0" in (engine / "records.py").read_text()) is no_turn_cap
+
+
+def test_an_edit_whose_text_is_gone_is_named(tmp_path: Path) -> None:
+    tree = _copy(tmp_path)
+    segment = tree / "xface_core" / "_engine" / "segment.py"
+    segment.write_text(segment.read_text().replace("    elif kind == E_CONTACT:\n", "\n"))
+    with pytest.raises(ValueError, match=r"_engine/segment\.py: the text to edit is found 0 times"):
+        _apply_oracle(tree)
