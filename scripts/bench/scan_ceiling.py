@@ -25,6 +25,9 @@ best case instead of estimating it:
    then, ``--rounds`` times, the whole grid scanning every pair ("every pair") and scanning
    each cell's recorded pairs only ("oracle").
 
+``--why-awake`` adds a pass that counts, for the pairs that did not matter, the steps in which
+they were awake all the same, by what kept them awake (:data:`WHY_AWAKE`).
+
 Prints per design the pairs per cell, the best times, their ratio, and whether the outcomes
 and step counts of both passes equal those of the recording pass (the oracle's set suffices
 when they do). Exit 1 if a build, a run or an edit fails. ``--keep`` keeps the folder.
@@ -100,6 +103,38 @@ EDITS: tuple[tuple[str, str, str], ...] = (
 
 NO_TURN_CAP = ("_engine/records.py", "\nMAX_TURN = 0.02\n", "\nMAX_TURN = 3.0\n")
 
+#: ``--why-awake``, after :data:`EDITS`: six columns more. Column 26 marks the pairs that
+#: mattered in the cell being run; 27-30 count the steps in which a pair that did not matter
+#: was awake (in reach, so evaluated and tested), by which limit of its budget
+#: (``scan.reach_budget``, from the values at the step's start) kept it awake, the distance
+#: to its edge or to its start corner (the corner test's reach), and whether its vertex was
+#: outside its edge's line or behind it; 31 counts them all.
+WHY_AWAKE: tuple[tuple[str, str, str], ...] = (
+    ("_engine/pairs.py", "PAIR_COLUMNS = 26", "PAIR_COLUMNS = 32"),
+    (
+        "contact.py",
+        "    out[:, :, 25] = 0.0\n",
+        "    out[:, :, 25] = 0.0\n    out[:, :, 26:32] = 0.0\n",
+    ),
+    (
+        "_engine/scan.py",
+        "        _refresh_start(row, i, work, (cb0, sb0, cm0, sm0), x0, step.y_m)\n        g1, u1,",
+        (
+            "        _refresh_start(row, i, work, (cb0, sb0, cm0, sm0), x0, step.y_m)\n"
+            "        if row[26] == 0.0:\n"
+            "            gq, uq, ln = g_prev[i], u_prev[i], row[COL_EDGE_LENGTH]\n"
+            "            al = (-0.25 - uq) * ln if uq < -0.25 else max(uq - 1.25, 0.0) * ln\n"
+            "            to_edge, to_corner = max(abs(gq), al), math.inf\n"
+            "            if corners_can_cross(row):\n"
+            "                to_corner = max(abs(uq) * ln, abs(gq)) - 0.52 * ln\n"
+            "            by_corner = 1 if to_corner < to_edge else 0\n"
+            "            row[27 + 2 * by_corner + (1 if gq < 0.0 else 0)] += 1.0\n"
+            "            row[31] += 1.0\n"
+            "        g1, u1,"
+        ),
+    ),
+)
+
 #: Appended to the copy's simulate.py: the grid with a per-cell mask of pairs to scan.
 ORACLE_ENTRY = '''
 
@@ -135,7 +170,7 @@ import numpy as np
 import xface_core as xf
 from xface_core import _engine, runner
 from xface_core.maps.grids import theta_grid, x0_grid
-rounds = int(sys.argv[1])
+rounds, why_awake = int(sys.argv[1]), sys.argv[2] == "1"
 designs = [("X 0.25/2", xf.x_face(0.25, 2.0)), ("X 1/1", xf.x_face(1.0, 1.0)),
            ("V 0.5/1", xf.v_face(0.5, 1.0)), ("S 0.5/1", xf.s_face(0.5, 1.0))]
 gx, gt = np.meshgrid(x0_grid(41), theta_grid(41), indexing="ij")
@@ -160,17 +195,26 @@ for name, design in designs:
         bool((r["outcome"] == rec["outcome"]).all() and (r["steps"] == rec["steps"]).all())
         for r in (a, b)
     )
+    awake = [0.0] * 5
+    if why_awake:  # every pair scanned, cell by cell, counting the awake ones not kept
+        table = model.pairs
+        table[:, 27:32] = 0.0
+        for k in range(n):
+            table[:, 26] = masks[k]
+            one = slice(k, k + 1)
+            _engine.simulate_many_oracle(model, opts, xs[one], ts[one], ys[one], every[one], False)
+        awake = table[:, 27:32].sum(0).tolist()
     print(json.dumps({"design": name, "pairs": m, "kept_mean": float(masks.sum(1).mean()),
                       "kept_max": int(masks.sum(1).max()), "every_ms": min(t_every) * 1e3,
                       "oracle_ms": min(t_oracle) * 1e3, "steps": int(rec["steps"].sum()),
-                      "same": same}))
+                      "same": same, "awake": awake}))
 """
 
 
-def apply_oracle(tree: Path, *, no_turn_cap: bool = False) -> None:
+def apply_oracle(tree: Path, *, no_turn_cap: bool = False, why_awake: bool = False) -> None:
     """Edit the copy of ``xface_core`` in ``tree`` (its parent folder) as described above;
     ValueError naming the edit whose text is not found exactly once."""
-    edits = (*EDITS, NO_TURN_CAP) if no_turn_cap else EDITS
+    edits = EDITS + ((NO_TURN_CAP,) if no_turn_cap else ()) + (WHY_AWAKE if why_awake else ())
     for name, old, new in edits:
         path = tree / "xface_core" / name
         text = path.read_text()
@@ -186,6 +230,11 @@ def main() -> int:
     parser.add_argument("--commit", default="HEAD", help="the engine to measure (default HEAD)")
     parser.add_argument("--rounds", type=int, default=5, help="timed passes per variant")
     parser.add_argument("--no-turn-cap", action="store_true", help="also lift MAX_TURN")
+    parser.add_argument(
+        "--why-awake",
+        action="store_true",
+        help="also count why the pairs that did not matter were awake (a slower pass)",
+    )
     parser.add_argument("--keep", action="store_true", help="keep the temporary folder")
     args = parser.parse_args()
     if args.rounds < 1:
@@ -202,7 +251,7 @@ def main() -> int:
             return 1
         subprocess.run(["tar", "-x", "-C", str(folder)], input=archive.stdout, check=True)
         try:
-            apply_oracle(folder, no_turn_cap=args.no_turn_cap)
+            apply_oracle(folder, no_turn_cap=args.no_turn_cap, why_awake=args.why_awake)
         except ValueError as exc:
             print(f"scan_ceiling: {exc}")
             return 1
@@ -215,7 +264,7 @@ def main() -> int:
             "NUMBA_CACHE_DIR": str(folder / "numba"),
         }
         done = subprocess.run(
-            [sys.executable, "-c", DRIVER, str(args.rounds)],
+            [sys.executable, "-c", DRIVER, str(args.rounds), "1" if args.why_awake else "0"],
             env=env,
             cwd=folder,
             capture_output=True,
@@ -243,6 +292,23 @@ def main() -> int:
             f"| {r['oracle_ms'] / r['every_ms']:.3f} | {r['steps']} "
             f"| {'yes' if r['same'] else 'NO'} |"
         )
+    if args.why_awake:
+        print(
+            "\nSteps in which a pair that did not matter was awake, by what kept it awake "
+            "(the nearer of its edge and its start corner, at the step's start) and where its "
+            "vertex was:\n"
+        )
+        print(
+            "| design | per step | edge, outside | edge, behind "
+            "| corner, outside | corner, behind |"
+        )
+        print("|---|---:|---:|---:|---:|---:|")
+        for r in rows:
+            out_e, behind_e, out_c, behind_c, total = r["awake"]
+            shares = " | ".join(
+                f"{v / max(total, 1.0):.2f}" for v in (out_e, behind_e, out_c, behind_c)
+            )
+            print(f"| {r['design']} | {total / max(r['steps'], 1):.1f} | {shares} |")
     return 0 if rows else 1
 
 

@@ -14,10 +14,10 @@ import pytest
 ROOT = Path(__file__).resolve().parents[3]
 
 
-def _apply_oracle(tree: Path, *, no_turn_cap: bool = False) -> None:
+def _apply_oracle(tree: Path, *, no_turn_cap: bool = False, why_awake: bool = False) -> None:
     """The script's own ``apply_oracle`` (runpy: the script is not a module of a package)."""
     namespace = runpy.run_path(str(ROOT / "scripts" / "bench" / "scan_ceiling.py"))
-    namespace["apply_oracle"](tree, no_turn_cap=no_turn_cap)
+    namespace["apply_oracle"](tree, no_turn_cap=no_turn_cap, why_awake=why_awake)
 
 
 def _copy(tmp_path: Path) -> Path:
@@ -26,15 +26,20 @@ def _copy(tmp_path: Path) -> Path:
     return tmp_path
 
 
-@pytest.mark.parametrize("no_turn_cap", [False, True])
-def test_the_edits_apply_to_the_engine_and_compile(tmp_path: Path, no_turn_cap: bool) -> None:
+@pytest.mark.parametrize(
+    ("no_turn_cap", "why_awake"), [(False, False), (True, False), (False, True)]
+)
+def test_the_edits_apply_to_the_engine_and_compile(
+    tmp_path: Path, no_turn_cap: bool, why_awake: bool
+) -> None:
     tree = _copy(tmp_path)
-    _apply_oracle(tree, no_turn_cap=no_turn_cap)
+    _apply_oracle(tree, no_turn_cap=no_turn_cap, why_awake=why_awake)
     engine = tree / "xface_core" / "_engine"
     for path in (*engine.glob("*.py"), tree / "xface_core" / "contact.py"):
         py_compile.compile(str(path), doraise=True)
     assert "def simulate_many_oracle(" in (engine / "simulate.py").read_text()
     assert ("MAX_TURN = 3.0" in (engine / "records.py").read_text()) is no_turn_cap
+    assert ("PAIR_COLUMNS = 32" in (engine / "pairs.py").read_text()) is why_awake
 
 
 def test_an_edit_whose_text_is_gone_is_named(tmp_path: Path) -> None:
