@@ -27,6 +27,8 @@ col   meaning
 21    the edge's length (likewise)
 22    length of the edge before the edge's start corner (same frame as 3-6)
 23    length of the edge after the edge's end corner
+24    1 if this pair tests its vertex and its edge's start corner for crossing like an X, 0
+      if its partner does (filled after 21: :func:`_mark_corner_tests`)
 ====  =================================================================================
 
 The neighbours' normals let the engine tell, near a corner, whether a vertex behind the
@@ -47,6 +49,8 @@ import numpy.typing as npt
 
 from ._engine import Model
 from ._engine.pairs import (
+    COL_CORNER_TESTED,
+    COL_EDGE_LENGTH,
     COL_LENGTH_AFTER,
     COL_LENGTH_BEFORE,
     PAIR_COLUMNS,
@@ -142,8 +146,29 @@ _cache_lock = threading.Lock()
 _by_design: weakref.WeakKeyDictionary[FaceDesign, PairTable] = weakref.WeakKeyDictionary()
 
 
+def _mark_corner_tests(data: FloatArray, first: int, n_base: int, n_moving: int) -> None:
+    """Fill COL_CORNER_TESTED for one layer whose moving-vertex block starts at row ``first``
+    (its ``n_base`` base and ``n_moving`` moving vertices, as many edges each).
+
+    Row ``first + e n_moving + v`` is moving vertex v against base edge e, which starts at
+    base vertex e; its partner, base vertex e against moving edge v (which starts at moving
+    vertex v), is row ``first + n_base n_moving + v n_base + e``. Of the two, the one with
+    the longer edge tests their corners for crossing (``_engine.pairs.tests_corner_crossing``),
+    the moving vertex's on a tie: both lengths are read from the table, so exactly one does.
+    """
+    e, v = np.divmod(np.arange(n_base * n_moving), n_moving)
+    own = first + e * n_moving + v
+    partner = first + n_base * n_moving + v * n_base + e
+    own_len, partner_len = data[own, COL_EDGE_LENGTH], data[partner, COL_EDGE_LENGTH]
+    moving_tests = own_len >= partner_len
+    data[own, COL_CORNER_TESTED] = moving_tests
+    data[partner, COL_CORNER_TESTED] = ~moving_tests
+
+
 def _build(design: FaceDesign) -> PairTable:
     tables, base_edges, moving_edges = [], [], []
+    blocks = []  # per layer: the first row of its moving-vertex block, and the counts
+    start = 0
     for layer, (base, moving) in enumerate(
         zip(design.base_layers, design.moving_layers, strict=True)
     ):
@@ -152,8 +177,12 @@ def _build(design: FaceDesign) -> PairTable:
         moving_edges.append(me)
         tables.append(_pairs(moving, be, MOVING_VERTEX))
         tables.append(_pairs(base, me, BASE_VERTEX))
+        blocks.append((start, len(base), len(moving)))
+        start += 2 * len(base) * len(moving)
     data = np.ascontiguousarray(np.vstack(tables))
     fill_extents(data)
+    for first, n_base, n_moving in blocks:
+        _mark_corner_tests(data, first, n_base, n_moving)
     base = np.ascontiguousarray(np.vstack(base_edges))
     moving = np.ascontiguousarray(np.vstack(moving_edges))
     return PairTable(

@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 import shutil
 import subprocess
 import sys
@@ -49,15 +50,15 @@ ROOT = Path(__file__).resolve().parents[2]
 EDITS: tuple[tuple[str, str, str], ...] = (
     (
         "_engine/pairs.py",
-        "PAIR_COLUMNS = 24\n",
-        "PAIR_COLUMNS = 26  # 24: scan this pair (oracle), 25: it mattered (recorded)\n",
+        "PAIR_COLUMNS = @P@\n",
+        "PAIR_COLUMNS = @N2@  # @O@: scan this pair (oracle), @S@: it mattered (recorded)\n",
     ),
     (
         "contact.py",
         "    out[:, :, COL_LENGTH_AFTER] = length_after[:, None]\n",
         (
             "    out[:, :, COL_LENGTH_AFTER] = length_after[:, None]\n"
-            "    out[:, :, 24] = 1.0\n    out[:, :, 25] = 0.0\n"
+            "    out[:, :, @O@] = 1.0\n    out[:, :, @S@] = 0.0\n"
         ),
     ),
     (
@@ -65,7 +66,7 @@ EDITS: tuple[tuple[str, str, str], ...] = (
         "        travel = _travel(row, step.h, turn)\n        if sleep[i, 0] > travel:\n",
         (
             "        travel = _travel(row, step.h, turn)\n"
-            "        if row[24] == 0.0:\n"
+            "        if row[@O@] == 0.0:\n"
             "            sleep[i, 1] = travel\n"
             "            sleep[i, 2] = 1.0\n"
             "            continue\n"
@@ -77,7 +78,7 @@ EDITS: tuple[tuple[str, str, str], ...] = (
         "(cb0, sb0, cm0, sm0, step.y_m, step.phi_b, step.phi_m))  # fmt: skip\n",
         (
             "(cb0, sb0, cm0, sm0, step.y_m, step.phi_b, step.phi_m))  # fmt: skip\n"
-            "            if crossed:\n                row[25] = 1.0\n"
+            "            if crossed:\n                row[@S@] = 1.0\n"
         ),
     ),
     (
@@ -85,14 +86,14 @@ EDITS: tuple[tuple[str, str, str], ...] = (
         "        if run.n_active == 0:\n            approach(",
         (
             "        for k in range(run.n_active):\n"
-            "            model.pairs[work.act[k], 25] = 1.0\n"
+            "            model.pairs[work.act[k], @S@] = 1.0\n"
             "        if run.n_active == 0:\n            approach("
         ),
     ),
     (
         "_engine/segment.py",
         "    elif kind == E_CONTACT:\n",
-        "    elif kind == E_CONTACT:\n        seg.held.pairs[ev.pair, 25] = 1.0\n",
+        "    elif kind == E_CONTACT:\n        seg.held.pairs[ev.pair, @S@] = 1.0\n",
     ),
     (
         "_engine/__init__.py",
@@ -110,26 +111,26 @@ NO_TURN_CAP = ("_engine/records.py", "\nMAX_TURN = 0.02\n", "\nMAX_TURN = 3.0\n"
 #: to its edge or to its start corner (the corner test's reach), and whether its vertex was
 #: outside its edge's line or behind it; 31 counts them all.
 WHY_AWAKE: tuple[tuple[str, str, str], ...] = (
-    ("_engine/pairs.py", "PAIR_COLUMNS = 26", "PAIR_COLUMNS = 32"),
+    ("_engine/pairs.py", "PAIR_COLUMNS = @N2@", "PAIR_COLUMNS = @N8@"),
     (
         "contact.py",
-        "    out[:, :, 25] = 0.0\n",
-        "    out[:, :, 25] = 0.0\n    out[:, :, 26:32] = 0.0\n",
+        "    out[:, :, @S@] = 0.0\n",
+        "    out[:, :, @S@] = 0.0\n    out[:, :, @M@:@N8@] = 0.0\n",
     ),
     (
         "_engine/scan.py",
         "        _refresh_start(row, i, work, (cb0, sb0, cm0, sm0), x0, step.y_m)\n        g1, u1,",
         (
             "        _refresh_start(row, i, work, (cb0, sb0, cm0, sm0), x0, step.y_m)\n"
-            "        if row[26] == 0.0:\n"
+            "        if row[@M@] == 0.0:\n"
             "            gq, uq, ln = g_prev[i], u_prev[i], row[COL_EDGE_LENGTH]\n"
             "            al = (-0.25 - uq) * ln if uq < -0.25 else max(uq - 1.25, 0.0) * ln\n"
             "            to_edge, to_corner = max(abs(gq), al), math.inf\n"
             "            if corners_can_cross(row):\n"
             "                to_corner = max(abs(uq) * ln, abs(gq)) - 0.52 * ln\n"
             "            by_corner = 1 if to_corner < to_edge else 0\n"
-            "            row[27 + 2 * by_corner + (1 if gq < 0.0 else 0)] += 1.0\n"
-            "            row[31] += 1.0\n"
+            "            row[@C@ + 2 * by_corner + (1 if gq < 0.0 else 0)] += 1.0\n"
+            "            row[@T@] += 1.0\n"
             "        g1, u1,"
         ),
     ),
@@ -153,13 +154,13 @@ def simulate_many_oracle(
     table = model.pairs
     for k in range(n):
         for i in range(table.shape[0]):
-            table[i, 24] = 1.0 if record else masks[k, i]
-            table[i, 25] = 0.0
+            table[i, @O@] = 1.0 if record else masks[k, i]
+            table[i, @S@] = 0.0
         reset_work(work)
         simulate(model, opts, xs[k], ts[k], ys[k], runs[k], path, path_pairs, work)
         if record:
             for i in range(table.shape[0]):
-                masks[k, i] = table[i, 25]
+                masks[k, i] = table[i, @S@]
     return runs
 '''
 
@@ -198,12 +199,12 @@ for name, design in designs:
     awake = [0.0] * 5
     if why_awake:  # every pair scanned, cell by cell, counting the awake ones not kept
         table = model.pairs
-        table[:, 27:32] = 0.0
+        table[:, @C@:@N8@] = 0.0
         for k in range(n):
-            table[:, 26] = masks[k]
+            table[:, @M@] = masks[k]
             one = slice(k, k + 1)
             _engine.simulate_many_oracle(model, opts, xs[one], ts[one], ys[one], every[one], False)
-        awake = table[:, 27:32].sum(0).tolist()
+        awake = table[:, @C@:@N8@].sum(0).tolist()
     print(json.dumps({"design": name, "pairs": m, "kept_mean": float(masks.sum(1).mean()),
                       "kept_max": int(masks.sum(1).max()), "every_ms": min(t_every) * 1e3,
                       "oracle_ms": min(t_oracle) * 1e3, "steps": int(rec["steps"].sum()),
@@ -211,18 +212,42 @@ for name, design in designs:
 """
 
 
+def columns(tree: Path) -> dict[str, str]:
+    """The copy's new pair-table columns, after its own ``PAIR_COLUMNS`` = P: the oracle's
+    mask (@O@ = P), what mattered (@S@), and for ``--why-awake`` the mask of what mattered in
+    the cell being run (@M@), four counters from @C@ and their total (@T@); the widths @N2@
+    and @N8@. ValueError when pairs.py does not say P."""
+    found = re.search(
+        r"^PAIR_COLUMNS = (\d+)$", (tree / "xface_core/_engine/pairs.py").read_text(), re.M
+    )
+    if found is None:
+        raise ValueError("_engine/pairs.py: no PAIR_COLUMNS = <n> line")
+    p = int(found.group(1))
+    offsets = {"@P@": 0, "@O@": 0, "@S@": 1, "@M@": 2, "@C@": 3, "@T@": 7, "@N2@": 2, "@N8@": 8}
+    return {key: str(p + offset) for key, offset in offsets.items()}
+
+
+def with_columns(text: str, cols: dict[str, str]) -> str:
+    """``text`` with the placeholders of :func:`columns` filled in."""
+    for key, value in cols.items():
+        text = text.replace(key, value)
+    return text
+
+
 def apply_oracle(tree: Path, *, no_turn_cap: bool = False, why_awake: bool = False) -> None:
     """Edit the copy of ``xface_core`` in ``tree`` (its parent folder) as described above;
     ValueError naming the edit whose text is not found exactly once."""
+    cols = columns(tree)
     edits = EDITS + ((NO_TURN_CAP,) if no_turn_cap else ()) + (WHY_AWAKE if why_awake else ())
-    for name, old, new in edits:
+    for name, old_text, new_text in edits:
+        old, new = with_columns(old_text, cols), with_columns(new_text, cols)
         path = tree / "xface_core" / name
         text = path.read_text()
         if text.count(old) != 1:
             raise ValueError(f"{name}: the text to edit is found {text.count(old)} times: {old!r}")
         path.write_text(text.replace(old, new))
     simulate = tree / "xface_core" / "_engine" / "simulate.py"
-    simulate.write_text(simulate.read_text() + ORACLE_ENTRY)
+    simulate.write_text(simulate.read_text() + with_columns(ORACLE_ENTRY, cols))
 
 
 def main() -> int:
@@ -255,6 +280,7 @@ def main() -> int:
         except ValueError as exc:
             print(f"scan_ceiling: {exc}")
             return 1
+        driver = with_columns(DRIVER, columns(folder))
         (folder / "empty").mkdir()
         env = {
             "PATH": "/usr/bin:/bin",
@@ -264,7 +290,7 @@ def main() -> int:
             "NUMBA_CACHE_DIR": str(folder / "numba"),
         }
         done = subprocess.run(
-            [sys.executable, "-c", DRIVER, str(args.rounds), "1" if args.why_awake else "0"],
+            [sys.executable, "-c", driver, str(args.rounds), "1" if args.why_awake else "0"],
             env=env,
             cwd=folder,
             capture_output=True,

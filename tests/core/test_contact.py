@@ -1,4 +1,5 @@
-"""Pair tables: built once per geometry, shared by equal designs, holding no design alive."""
+"""Pair tables: built once per geometry, shared by equal designs, holding no design alive;
+which pair of two that meet at the same corners judges their crossing."""
 
 from __future__ import annotations
 
@@ -6,9 +7,12 @@ import gc
 import weakref
 
 import numpy as np
+import pytest
 
 import xface_core as xf
 from xface_core import contact
+from xface_core._engine.pairs import COL_CORNER_TESTED, COL_EDGE_LENGTH
+from xface_core.contact import MOVING_VERTEX, pair_table
 
 
 def test_equal_designs_share_one_table() -> None:
@@ -69,3 +73,40 @@ def test_the_engine_model_is_built_from_the_same_arrays() -> None:
     table = contact.pair_table(xf.x_face(0.25, 2.0))
     assert table.model.pairs is table.data
     assert table.model.mated_distance == 4.25
+
+
+# ---- which pair of a meeting of two corners judges their crossing -------------------------
+
+_SQUARE = [(-0.5, -1.0), (0.5, -1.0), (0.5, 0.5), (-0.5, 0.5)]
+_TALL = [(-0.4, 0.0), (0.3, 0.0), (0.3, 1.5), (-0.4, 1.5)]
+_TRIANGLE = [(-0.4, -0.9), (0.4, -0.9), (0.0, -0.2)]
+
+
+@pytest.mark.parametrize(
+    "design",
+    [
+        xf.x_face(0.25, 2.0),
+        xf.v_face(0.5, 1.0),
+        xf.s_face(0.5, 1.0),
+        xf.custom_face([_SQUARE, _TRIANGLE], [_TALL, _TRIANGLE], mated_distance=2.0),
+    ],
+    ids=["X", "V", "S", "custom, two layers"],
+)
+def test_each_meeting_of_corners_is_judged_by_the_pair_with_the_longer_edge(
+    design: xf.FaceDesign,
+) -> None:
+    """Found by geometry, not by the row arithmetic the table uses: a pair's partner has this
+    pair's edge start as its vertex and this pair's vertex as its edge start, in the same
+    layer; exactly one of the two judges, the longer edge's (the moving vertex's on a tie)."""
+    t = pair_table(design).data
+    for i, row in enumerate(t):
+        (j,) = np.flatnonzero(
+            (t[:, 0] != row[0])
+            & (t[:, 9] == row[9])
+            & np.all(t[:, 1:3] == row[3:5], axis=1)
+            & np.all(t[:, 3:5] == row[1:3], axis=1)
+        )
+        mine, theirs = row[COL_EDGE_LENGTH], t[j, COL_EDGE_LENGTH]
+        judges = mine > theirs or (mine == theirs and row[0] == MOVING_VERTEX)
+        assert row[COL_CORNER_TESTED] == (1.0 if judges else 0.0), i
+        assert row[COL_CORNER_TESTED] + t[j, COL_CORNER_TESTED] == 1.0

@@ -27,8 +27,12 @@ COL_EDGE_LENGTH = 21
 #: edge after the end corner (:mod:`xface_core.contact` fills them).
 COL_LENGTH_BEFORE = 22
 COL_LENGTH_AFTER = 23
+#: Column: 1 if this pair tests its vertex against its edge's start corner for two corners
+#: crossed like an X (:func:`tests_corner_crossing`), 0 if its partner does (the pair whose
+#: vertex is that corner and whose edge starts at this pair's vertex: the same meeting).
+COL_CORNER_TESTED = 24
 #: Columns of a full pair table (:mod:`xface_core.contact`).
-PAIR_COLUMNS = 24
+PAIR_COLUMNS = 25
 
 
 @njit_no_refcount
@@ -380,6 +384,18 @@ def corners_can_cross(row: FloatArray) -> bool:
     return bool(row[14] >= 0.5 and row[18] * row[17] - row[19] * row[16] < 0.0)
 
 
+@njit_no_refcount
+def tests_corner_crossing(row: FloatArray) -> bool:
+    """Does this pair test its vertex V and its edge's start corner K for crossing like an X
+    (:func:`wedges_cross`)? Only if both are convex (:func:`corners_can_cross`), and only one
+    of the two pairs that meet there does: this one, and its partner (K's part's vertex K
+    against V's part's edge that starts at V) with the other, ask the same question of the
+    same two wedges (the cone of one wedge and the other turned by pi, the offset's sign and
+    the roles swapped). The pair with the longer edge asks it (:mod:`xface_core.contact`
+    marks it), as far as half of that edge, which covers the partner's half of its own."""
+    return bool(corners_can_cross(row) and row[COL_CORNER_TESTED] > 0.5)
+
+
 @njit_inline
 def wedges_cross(row: FloatArray, cb: float, sb: float, cm: float, sm: float, x0: float,
                  y_m: float, margin: float, rays: FloatArray) -> bool:  # fmt: skip
@@ -389,10 +405,13 @@ def wedges_cross(row: FloatArray, cb: float, sb: float, cm: float, sm: float, x0
     Two convex corners can cross like an X, neither vertex inside the other part and an
     edge of each cutting through the other; no gap of a vertex shows it. Then V - K lies
     inside the cone of :func:`_cone_admits`. Judged only where V is nearer K than half of
-    K's edge (the wedges stand for the parts there). Every (vertex, corner) meeting is
-    some pair's start corner, so the start corners of all pairs cover them all.
+    K's edge (the wedges stand for the parts there). Every (vertex, corner) meeting is two
+    pairs' start corner, this pair's and its partner's (:func:`tests_corner_crossing`);
+    the one with the longer edge judges it, within half of that edge, which covers the
+    other's half of its own: so the pairs that test cover every meeting. False for a pair
+    that leaves its meeting to its partner.
     """
-    if not corners_can_cross(row):
+    if not tests_corner_crossing(row):
         return False
     moving_v = row[0] == 0.0
     cv, sv, ck, sk = (cm, sm, cb, sb) if moving_v else (cb, sb, cm, sm)

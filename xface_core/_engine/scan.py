@@ -30,10 +30,10 @@ from .pairs import (
     COL_REACH,
     clipped_gap,
     corner_distance,
-    corners_can_cross,
     eval_pair,
     pair_at,
     past_reflex_end,
+    tests_corner_crossing,
     wedges_cross,
 )
 from .records import (
@@ -657,9 +657,10 @@ def reach_budget(row: FloatArray, g: float, u: float) -> float:
     ``g`` and its edge parameter ``u``, and still be out of reach: farther than SLEEP_SLACK
     from the edge extended by a quarter of its length at both ends (where a crossing of its
     line is still searched, :func:`_contact_events`), and from within half an edge of its
-    start corner (where two corners crossing are looked for, :func:`_crossing`, if they can
-    cross at all: a reflex corner cannot, and on S 0.5/1 the corner's reach alone kept such
-    pairs in the scans 26500 times a map)."""
+    start corner (where two corners crossing are looked for, :func:`_crossing`, if this
+    pair looks for them: a reflex corner cannot cross, and of the two pairs of each meeting
+    of convex corners only one looks, :func:`~.pairs.tests_corner_crossing`; on S 0.5/1 the
+    corner's reach alone kept such pairs in the scans 26500 times a map)."""
     length = float(row[COL_EDGE_LENGTH])
     along = 0.0
     if u < -0.25:
@@ -669,7 +670,7 @@ def reach_budget(row: FloatArray, g: float, u: float) -> float:
     # The larger leg of each distance, not the distance itself: a bound as safe, and a
     # hypot per pair and step was a tenth of the engine's time.
     to_edge = max(abs(g), along)
-    if not corners_can_cross(row):
+    if not tests_corner_crossing(row):
         return float(to_edge - SLEEP_SLACK)
     to_corner = max(abs(u) * length, abs(g)) - 0.52 * length
     return float(min(to_edge, to_corner) - SLEEP_SLACK)

@@ -6,13 +6,18 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
 
 import xface_core as xf
 from xface_core._engine.pairs import (
+    COL_CORNER_TESTED,
+    COL_EDGE_LENGTH,
     _side_of_all,
     clipped_gap,
     corner_distance,
     corner_motion_admissible,
+    corners_can_cross,
     meets_part,
     pair_at,
     wedges_cross,
@@ -114,12 +119,81 @@ MOVING_V = _pair(MOVING_VERTEX, (-0.5, 0.0), (0.5, 0.0))  # V on the top edge, K
 BASE_K = _pair(1 - MOVING_VERTEX, (0.5, 0.0), (-0.5, 0.0))  # K on V's edge, V its start
 
 
+def _judging(row: np.ndarray) -> np.ndarray:
+    """The pair's row marked as the one that judges its meeting (either pair of a meeting
+    asks the same question; the table lets one of them ask it)."""
+    judging = row.copy()
+    judging[COL_CORNER_TESTED] = 1.0
+    return judging
+
+
 def _crossing(pair: int, phi_m_deg: float) -> bool:
     phi_m = np.radians(phi_m_deg)
     x0 = V_AT[0] - 0.5 * np.cos(phi_m)
     y_m = V_AT[1] - 0.5 * np.sin(phi_m)
     cm, sm = float(np.cos(phi_m)), float(np.sin(phi_m))
-    return wedges_cross(TABLE[pair], 1.0, 0.0, cm, sm, x0, y_m, 1e-9, np.empty((4, 2)))
+    row = _judging(TABLE[pair])
+    return wedges_cross(row, 1.0, 0.0, cm, sm, x0, y_m, 1e-9, np.empty((4, 2)))
+
+
+def test_only_one_pair_of_a_meeting_judges_it() -> None:
+    # Both edges are 1 D long: the moving vertex's pair judges, its partner answers False
+    # even where the corners cross.
+    assert TABLE[MOVING_V][COL_CORNER_TESTED] == 1.0
+    assert TABLE[BASE_K][COL_CORNER_TESTED] == 0.0
+    phi_m = np.radians(70.0)
+    x0, y_m = V_AT[0] - 0.5 * np.cos(phi_m), V_AT[1] - 0.5 * np.sin(phi_m)
+    cm, sm = float(np.cos(phi_m)), float(np.sin(phi_m))
+    assert not wedges_cross(TABLE[BASE_K], 1.0, 0.0, cm, sm, x0, y_m, 1e-9, np.empty((4, 2)))
+    assert _crossing(BASE_K, 70.0)
+
+
+# The S-Face 0.5/1 pairs whose vertex and edge start are both convex, each with its partner.
+_S_MEETINGS = [
+    (i, int(j))
+    for i, row in enumerate(S_TABLE)
+    if corners_can_cross(row) and row[COL_CORNER_TESTED] == 1.0
+    for j in np.flatnonzero(
+        (S_TABLE[:, 0] != row[0])
+        & np.all(S_TABLE[:, 1:3] == row[3:5], axis=1)
+        & np.all(S_TABLE[:, 3:5] == row[1:3], axis=1)
+    )
+]
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    meeting=st.sampled_from(_S_MEETINGS),
+    phi_b=st.floats(-1.2, 1.2),
+    phi_m=st.floats(-1.2, 1.2),
+    offset=st.tuples(st.floats(-0.4, 0.4), st.floats(-0.4, 0.4)),
+)
+def test_both_pairs_of_a_meeting_ask_the_same_question(
+    meeting: tuple[int, int], phi_b: float, phi_m: float, offset: tuple[float, float]
+) -> None:
+    """The property the table's choice rests on: within both pairs' reach (half the shorter
+    edge), the pair that judges and its partner answer alike."""
+    i, j = meeting
+    row, partner = S_TABLE[i], S_TABLE[j]
+    cb, sb, cm, sm = np.cos(phi_b), np.sin(phi_b), np.cos(phi_m), np.sin(phi_m)
+    reach = 0.5 * min(row[COL_EDGE_LENGTH], partner[COL_EDGE_LENGTH])
+    dx, dy = offset
+    assume(1e-3 < np.hypot(dx, dy) < 0.99 * reach)
+
+    # Put the vertex V of row i at its edge's start corner K plus ``offset`` in the world,
+    # by the moving pivot: a base point is R(phi_B) r, a moving one P_M - R(phi_M) r.
+    def turned(c: float, s: float, x: float, y: float) -> np.ndarray:
+        return np.array([c * x - s * y, s * x + c * y])
+
+    v_body, k_body = (row[1], row[2]), (row[3], row[4])
+    if row[0] == MOVING_VERTEX:  # V on the moving part, K on the base
+        pivot = turned(cb, sb, *k_body) + np.array([dx, dy]) + turned(cm, sm, *v_body)
+    else:  # V on the base, K on the moving part
+        pivot = turned(cb, sb, *v_body) - np.array([dx, dy]) + turned(cm, sm, *k_body)
+    x0, y_m = float(pivot[0]), float(pivot[1])
+    rays = np.empty((4, 2))
+    here = (float(cb), float(sb), float(cm), float(sm), x0, y_m, 1e-9, rays)
+    assert wedges_cross(_judging(row), *here) == wedges_cross(_judging(partner), *here)
 
 
 @pytest.mark.parametrize("pair", [MOVING_V, BASE_K])

@@ -11,6 +11,7 @@ import xface_core as xf
 from xface_core._engine.events import NO_EVENT, step_to
 from xface_core._engine.motion import slip_margin
 from xface_core._engine.pairs import (
+    COL_CORNER_TESTED,
     COL_LENGTH_AFTER,
     PAIR_COLUMNS,
     clipped_gap,
@@ -278,13 +279,15 @@ def test_the_shared_screen_decides_as_the_two_screens_do(design, x0, theta0) -> 
     assert {(True, False), (False, True), (False, False)} <= decided
 
 
-def _budget_row(length: float, crossable: bool) -> np.ndarray:
+def _budget_row(length: float, crossable: bool, judges: bool = True) -> np.ndarray:
     """A pair row with an edge of ``length``; its start corner K and its vertex V both convex
-    (they can cross like an X) or K reflex."""
+    (they can cross like an X) or K reflex; a crossable pair that does not ``judge`` leaves
+    the meeting to its partner (pairs.tests_corner_crossing)."""
     row = np.zeros(PAIR_COLUMNS)
     row[21] = length  # COL_EDGE_LENGTH
     row[14] = 1.0 if crossable else 0.0  # K convex
     row[16:20] = (1.0, 0.0, 0.0, 1.0)  # V's two edge directions: a convex vertex
+    row[COL_CORNER_TESTED] = 1.0 if judges else 0.0
     return row
 
 
@@ -305,10 +308,12 @@ def test_thereach_budget_is_below_every_distance_at_which_a_pair_is_looked_at(se
     rng = np.random.default_rng(seed)
     length = rng.uniform(0.05, 2.0)
     crossable, reflex = _budget_row(length, True), _budget_row(length, False)
+    partner = _budget_row(length, True, judges=False)
     for g, u in zip(rng.normal(0.0, 1.0, 200), rng.normal(0.5, 1.5, 200), strict=True):
         to_edge, to_corner = _distances(g, u, length)
         assert reach_budget(crossable, g, u) <= min(to_edge, to_corner) + 1e-12
         assert reach_budget(reflex, g, u) <= to_edge + 1e-12
+        assert reach_budget(partner, g, u) <= to_edge + 1e-12
 
 
 def test_a_reflex_corner_does_not_keep_a_pair_near_it_in_the_scans() -> None:
@@ -317,6 +322,14 @@ def test_a_reflex_corner_does_not_keep_a_pair_near_it_in_the_scans() -> None:
     length, g, u = 1.0, 0.3, -0.1
     assert reach_budget(_budget_row(length, True), g, u) < 0.0
     assert reach_budget(_budget_row(length, False), g, u) == pytest.approx(0.3 - 1e-6)
+
+
+def test_a_pair_that_leaves_its_corners_to_its_partner_is_not_kept_near_them() -> None:
+    # As above, with both corners convex: the pair whose partner judges the meeting sleeps
+    # by its edge alone.
+    length, g, u = 1.0, 0.3, -0.1
+    partner = _budget_row(length, True, judges=False)
+    assert reach_budget(partner, g, u) == pytest.approx(0.3 - 1e-6)
 
 
 def test_a_pair_flat_at_the_event_does_not_come_before_it() -> None:

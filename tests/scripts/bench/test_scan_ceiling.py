@@ -5,11 +5,14 @@ here)."""
 from __future__ import annotations
 
 import py_compile
+import re
 import runpy
 import shutil
 from pathlib import Path
 
 import pytest
+
+from xface_core._engine.pairs import PAIR_COLUMNS
 
 ROOT = Path(__file__).resolve().parents[3]
 
@@ -39,7 +42,8 @@ def test_the_edits_apply_to_the_engine_and_compile(
         py_compile.compile(str(path), doraise=True)
     assert "def simulate_many_oracle(" in (engine / "simulate.py").read_text()
     assert ("MAX_TURN = 3.0" in (engine / "records.py").read_text()) is no_turn_cap
-    assert ("PAIR_COLUMNS = 32" in (engine / "pairs.py").read_text()) is why_awake
+    widened = PAIR_COLUMNS + (8 if why_awake else 2)
+    assert re.search(rf"^PAIR_COLUMNS = {widened}\b", (engine / "pairs.py").read_text(), re.M)
 
 
 def test_an_edit_whose_text_is_gone_is_named(tmp_path: Path) -> None:
