@@ -9,6 +9,7 @@ import re
 import runpy
 import shutil
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -17,10 +18,13 @@ from xface_core._engine.pairs import PAIR_COLUMNS
 ROOT = Path(__file__).resolve().parents[3]
 
 
+def _script() -> dict[str, Any]:
+    """The script's names (runpy: the script is not a module of a package)."""
+    return runpy.run_path(str(ROOT / "scripts" / "bench" / "scan_ceiling.py"))
+
+
 def _apply_oracle(tree: Path, *, no_turn_cap: bool = False, why_awake: bool = False) -> None:
-    """The script's own ``apply_oracle`` (runpy: the script is not a module of a package)."""
-    namespace = runpy.run_path(str(ROOT / "scripts" / "bench" / "scan_ceiling.py"))
-    namespace["apply_oracle"](tree, no_turn_cap=no_turn_cap, why_awake=why_awake)
+    _script()["apply_oracle"](tree, no_turn_cap=no_turn_cap, why_awake=why_awake)
 
 
 def _copy(tmp_path: Path) -> Path:
@@ -52,3 +56,14 @@ def test_an_edit_whose_text_is_gone_is_named(tmp_path: Path) -> None:
     segment.write_text(segment.read_text().replace("    elif kind == E_CONTACT:\n", "\n"))
     with pytest.raises(ValueError, match=r"_engine/segment\.py: the text to edit is found 0 times"):
         _apply_oracle(tree)
+
+
+def test_the_driver_gets_the_copys_columns(tmp_path: Path) -> None:
+    tree = _copy(tmp_path)
+    namespace = _script()
+    cols = namespace["columns"](tree)
+    assert cols["@O@"] == str(PAIR_COLUMNS)
+    for text in (namespace["DRIVER"], namespace["ORACLE_ENTRY"]):
+        filled = namespace["with_columns"](text, cols)
+        assert "@" not in filled.replace("@njit_cached", "")
+        compile(filled, "<filled>", "exec")
