@@ -88,9 +88,9 @@ _TRIANGLE = [(-0.4, -0.9), (0.4, -0.9), (0.0, -0.2)]
         xf.x_face(0.25, 2.0),
         xf.v_face(0.5, 1.0),
         xf.s_face(0.5, 1.0),
-        xf.custom_face([_SQUARE, _TRIANGLE], [_TALL, _TRIANGLE], mated_distance=2.0),
+        xf.custom_face([_SQUARE, _TRIANGLE], [_TRIANGLE, _TALL], mated_distance=2.0),
     ],
-    ids=["X", "V", "S", "custom, two layers"],
+    ids=["X", "V", "S", "custom, two layers of 4 and 3 vertices"],
 )
 def test_each_meeting_of_corners_is_judged_by_the_pair_with_the_longer_edge(
     design: xf.FaceDesign,
