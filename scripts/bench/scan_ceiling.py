@@ -104,12 +104,13 @@ EDITS: tuple[tuple[str, str, str], ...] = (
 
 NO_TURN_CAP = ("_engine/records.py", "\nMAX_TURN = 0.02\n", "\nMAX_TURN = 3.0\n")
 
-#: ``--why-awake``, after :data:`EDITS`: six columns more. Column 26 marks the pairs that
-#: mattered in the cell being run; 27-30 count the steps in which a pair that did not matter
-#: was awake (in reach, so evaluated and tested), by which limit of its budget
-#: (``scan.reach_budget``, from the values at the step's start) kept it awake, the distance
-#: to its edge or to its start corner (the corner test's reach), and whether its vertex was
-#: outside its edge's line or behind it; 31 counts them all.
+#: ``--why-awake``, after :data:`EDITS`: six columns more (:func:`columns`). Column @M@
+#: marks the pairs that mattered in the cell being run; four from @C@ count the steps in
+#: which a pair that did not matter was awake (in reach, so evaluated and tested), by which
+#: limit of its budget (``scan.reach_budget``'s rule, from the values at the step's start)
+#: kept it awake, the distance to its edge or to its start corner (the corner test's reach,
+#: for a pair that judges its meeting), and whether its vertex was outside its edge's line
+#: or behind it; @T@ counts them all.
 WHY_AWAKE: tuple[tuple[str, str, str], ...] = (
     ("_engine/pairs.py", "PAIR_COLUMNS = @N2@", "PAIR_COLUMNS = @N8@"),
     (
@@ -126,7 +127,7 @@ WHY_AWAKE: tuple[tuple[str, str, str], ...] = (
             "            gq, uq, ln = g_prev[i], u_prev[i], row[COL_EDGE_LENGTH]\n"
             "            al = (-0.25 - uq) * ln if uq < -0.25 else max(uq - 1.25, 0.0) * ln\n"
             "            to_edge, to_corner = max(abs(gq), al), math.inf\n"
-            "            if corners_can_cross(row):\n"
+            "            if tests_corner_crossing(row):\n"
             "                to_corner = max(abs(uq) * ln, abs(gq)) - 0.52 * ln\n"
             "            by_corner = 1 if to_corner < to_edge else 0\n"
             "            row[@C@ + 2 * by_corner + (1 if gq < 0.0 else 0)] += 1.0\n"
@@ -234,9 +235,12 @@ def with_columns(text: str, cols: dict[str, str]) -> str:
     return text
 
 
-def apply_oracle(tree: Path, *, no_turn_cap: bool = False, why_awake: bool = False) -> None:
-    """Edit the copy of ``xface_core`` in ``tree`` (its parent folder) as described above;
-    ValueError naming the edit whose text is not found exactly once."""
+def apply_oracle(
+    tree: Path, *, no_turn_cap: bool = False, why_awake: bool = False
+) -> dict[str, str]:
+    """Edit the copy of ``xface_core`` in ``tree`` (its parent folder) as described above, and
+    return the new columns (:func:`columns`, read before the edits widen the table) for the
+    driver; ValueError naming the edit whose text is not found exactly once."""
     cols = columns(tree)
     edits = EDITS + ((NO_TURN_CAP,) if no_turn_cap else ()) + (WHY_AWAKE if why_awake else ())
     for name, old_text, new_text in edits:
@@ -248,6 +252,7 @@ def apply_oracle(tree: Path, *, no_turn_cap: bool = False, why_awake: bool = Fal
         path.write_text(text.replace(old, new))
     simulate = tree / "xface_core" / "_engine" / "simulate.py"
     simulate.write_text(simulate.read_text() + with_columns(ORACLE_ENTRY, cols))
+    return cols
 
 
 def main() -> int:
@@ -276,11 +281,11 @@ def main() -> int:
             return 1
         subprocess.run(["tar", "-x", "-C", str(folder)], input=archive.stdout, check=True)
         try:
-            apply_oracle(folder, no_turn_cap=args.no_turn_cap, why_awake=args.why_awake)
+            cols = apply_oracle(folder, no_turn_cap=args.no_turn_cap, why_awake=args.why_awake)
         except ValueError as exc:
             print(f"scan_ceiling: {exc}")
             return 1
-        driver = with_columns(DRIVER, columns(folder))
+        driver = with_columns(DRIVER, cols)
         (folder / "empty").mkdir()
         env = {
             "PATH": "/usr/bin:/bin",

@@ -8,6 +8,8 @@ import py_compile
 import re
 import runpy
 import shutil
+import subprocess
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -42,8 +44,26 @@ def test_the_edits_apply_to_the_engine_and_compile(
     tree = _copy(tmp_path)
     _apply_oracle(tree, no_turn_cap=no_turn_cap, why_awake=why_awake)
     engine = tree / "xface_core" / "_engine"
-    for path in (*engine.glob("*.py"), tree / "xface_core" / "contact.py"):
+    edited = [*engine.glob("*.py"), tree / "xface_core" / "contact.py"]
+    for path in edited:
         py_compile.compile(str(path), doraise=True)
+    # Every name the edits use is defined where they put it (numba would stop the build).
+    undefined = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "ruff",
+            "check",
+            "--isolated",
+            "--select",
+            "F821",
+            *map(str, edited),
+        ],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert undefined.returncode == 0, undefined.stdout
     assert "def simulate_many_oracle(" in (engine / "simulate.py").read_text()
     assert ("MAX_TURN = 3.0" in (engine / "records.py").read_text()) is no_turn_cap
     widened = PAIR_COLUMNS + (8 if why_awake else 2)
@@ -58,10 +78,12 @@ def test_an_edit_whose_text_is_gone_is_named(tmp_path: Path) -> None:
         _apply_oracle(tree)
 
 
-def test_the_driver_gets_the_copys_columns(tmp_path: Path) -> None:
+@pytest.mark.parametrize("why_awake", [False, True])
+def test_the_driver_gets_the_copys_columns(tmp_path: Path, why_awake: bool) -> None:
+    # As the script runs: the columns are those apply_oracle read before it widened the table.
     tree = _copy(tmp_path)
     namespace = _script()
-    cols = namespace["columns"](tree)
+    cols = namespace["apply_oracle"](tree, why_awake=why_awake)
     assert cols["@O@"] == str(PAIR_COLUMNS)
     for text in (namespace["DRIVER"], namespace["ORACLE_ENTRY"]):
         filled = namespace["with_columns"](text, cols)
