@@ -127,13 +127,17 @@ def _judging(row: np.ndarray) -> np.ndarray:
     return judging
 
 
-def _crossing(pair: int, phi_m_deg: float) -> bool:
+def _wedges_cross(row: np.ndarray, phi_m_deg: float) -> bool:
+    """:func:`wedges_cross` of ``row`` with V at V_AT, the moving part turned by phi_M."""
     phi_m = np.radians(phi_m_deg)
     x0 = V_AT[0] - 0.5 * np.cos(phi_m)
     y_m = V_AT[1] - 0.5 * np.sin(phi_m)
     cm, sm = float(np.cos(phi_m)), float(np.sin(phi_m))
-    row = _judging(TABLE[pair])
     return wedges_cross(row, 1.0, 0.0, cm, sm, x0, y_m, 1e-9, np.empty((4, 2)))
+
+
+def _crossing(pair: int, phi_m_deg: float) -> bool:
+    return _wedges_cross(_judging(TABLE[pair]), phi_m_deg)
 
 
 def test_only_one_pair_of_a_meeting_judges_it() -> None:
@@ -141,10 +145,7 @@ def test_only_one_pair_of_a_meeting_judges_it() -> None:
     # even where the corners cross.
     assert TABLE[MOVING_V][COL_CORNER_TESTED] == 1.0
     assert TABLE[BASE_K][COL_CORNER_TESTED] == 0.0
-    phi_m = np.radians(70.0)
-    x0, y_m = V_AT[0] - 0.5 * np.cos(phi_m), V_AT[1] - 0.5 * np.sin(phi_m)
-    cm, sm = float(np.cos(phi_m)), float(np.sin(phi_m))
-    assert not wedges_cross(TABLE[BASE_K], 1.0, 0.0, cm, sm, x0, y_m, 1e-9, np.empty((4, 2)))
+    assert not _wedges_cross(TABLE[BASE_K], 70.0)
     assert _crossing(BASE_K, 70.0)
 
 
