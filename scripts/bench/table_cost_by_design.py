@@ -117,11 +117,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     total = sum(c.seconds for c in costs)
     print(f"{len(costs)} designs, {args.grid} x {args.grid} maps, one thread: "
           f"{total:.3f} s (best of {args.repeats} each)")  # fmt: skip
-    for key, title in (("face", "face"), ("r_p", "r_p")):
-        print(f"\n| {title} | s | share |\n|---|---:|---:|")
+    for key in ("face", "r_p"):
+        print(f"\n| {key} | s | share |\n|---|---:|---:|")
         for value, part, share in shares(costs, key):
-            print(f"| {value:g} | {part:.3f} | {share:.3f} |" if key == "r_p"
-                  else f"| {value} | {part:.3f} | {share:.3f} |")  # fmt: skip
+            label = f"{value:g}" if isinstance(value, float) else value
+            print(f"| {label} | {part:.3f} | {share:.3f} |")
     if args.top:
         print("\n| design | ms | share | M | steps per touching cell | rejected |"
               "\n|---|---:|---:|---:|---:|---:|")  # fmt: skip
