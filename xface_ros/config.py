@@ -31,6 +31,7 @@ __all__ = [
     "CUSTOM_FACE",
     "DESIGN_PARAMETERS",
     "FACE_FILE_TIMEOUT_S",
+    "GEOMETRY_PARAMETERS",
     "SPECS",
     "SPEC_BY_NAME",
     "ConfigError",
@@ -221,6 +222,12 @@ SPEC_BY_NAME: dict[str, ParamSpec] = {spec.name: spec for spec in SPECS}
 DESIGN_PARAMETERS = frozenset(
     {"face", "face_file", "width_m", "h_over_d", "r_p", "damping_ratio", "friction"}
 )
+
+#: Parameters the design's geometry is read or built from. A change that sets none of them
+#: keeps the design the node has: a face file is read when ``face`` or ``face_file`` is set
+#: (set ``face_file`` again, even to the same path, to read an edited file), not when
+#: friction or a timeout changes.
+GEOMETRY_PARAMETERS = frozenset({"face", "face_file", "width_m", "h_over_d", "r_p"})
 
 #: The ``face`` value that takes the design from ``face_file``.
 CUSTOM_FACE = "custom"
@@ -494,8 +501,14 @@ def _atlas_cache_dir(value: Any) -> str:
     return path
 
 
-def config_from_values(values: Mapping[str, Any]) -> NodeConfig:
+def config_from_values(
+    values: Mapping[str, Any], *, design: FaceDesign | None = None
+) -> NodeConfig:
     """Validate a full set of parameter values and build the design and the physics.
+
+    ``design``, when given, is kept instead of built: the design the node has, for a change
+    that sets none of :data:`GEOMETRY_PARAMETERS` (the values' geometry is the one it was
+    built from). No face file is read then.
 
     Raises
     ------
@@ -505,7 +518,8 @@ def config_from_values(values: Mapping[str, Any]) -> NodeConfig:
     _check_types_and_ranges(values)
     face = _face_letter(values["face"])
     base_frame = _base_frame(values["base_frame"])
-    design = _design(face, values)
+    if design is None:
+        design = _design(face, values)
     physics = _physics(values)
     record_path = _record_path(values["record_path"])
     return NodeConfig(

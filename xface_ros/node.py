@@ -31,7 +31,7 @@ import sys
 import threading
 import time
 from collections.abc import Callable, Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import rclpy
 import yaml
@@ -63,6 +63,9 @@ from rclpy.signals import SignalHandlerOptions
 from rclpy.utilities import remove_ros_args
 from std_msgs.msg import Bool, Header
 from visualization_msgs.msg import MarkerArray
+
+if TYPE_CHECKING:
+    from xface_core.geometry import FaceDesign
 
 from xface_ros import names
 from xface_ros.atlas_keeper import AtlasKeeper
@@ -99,6 +102,7 @@ from xface_ros.decision import (
 from xface_ros.diagnostics import diagnostic_array, predictor_status
 from xface_ros.params import (
     DESIGN_PARAMETERS,
+    GEOMETRY_PARAMETERS,
     SPECS,
     ConfigError,
     NodeConfig,
@@ -357,13 +361,21 @@ class _Predictor(Node):
         if message is not None:
             self.get_logger().warning(message)
 
+    def _kept_design(self, params: list[Parameter]) -> FaceDesign | None:
+        """The node's design, for a change that sets none of its geometry's parameters (then
+        no face file is read: a file moved or edited since it was read changes nothing until
+        ``face_file`` is set again); None, to build it from the values."""
+        if {p.name for p in params} & GEOMETRY_PARAMETERS:
+            return None
+        return self.config.design
+
     def _validate_parameters(self, params: list[Parameter]) -> SetParametersResult:
         """Accept a change only if the whole set after it makes a config; else refuse it with
         the reason (returned and logged) and keep the config the node runs with."""
         self._validated = None
         values = merged_values(current_values(self), params)
         try:
-            config = config_from_values(values)
+            config = config_from_values(values, design=self._kept_design(params))
         except ConfigError as exc:
             reason = str(exc)
         # Broad on purpose: an exception out of this callback ends the node (rclpy raises it
@@ -383,7 +395,7 @@ class _Predictor(Node):
             if validated is not None and validated[0] == values:
                 config = validated[1]
             else:
-                config = config_from_values(values)
+                config = config_from_values(values, design=self._kept_design(params))
         except Exception as exc:  # validated already; keep the old config if it happens
             self.get_logger().error(f"parameter change not applied: {exc}")
             return

@@ -18,6 +18,7 @@ from rclpy.parameter import Parameter
 
 from xface_ros.config import (
     DESIGN_PARAMETERS,
+    GEOMETRY_PARAMETERS,
     SPEC_BY_NAME,
     SPECS,
     ConfigError,
@@ -30,6 +31,7 @@ from xface_ros.config import (
 
 __all__ = [
     "DESIGN_PARAMETERS",
+    "GEOMETRY_PARAMETERS",
     "SPECS",
     "ConfigError",
     "NodeConfig",

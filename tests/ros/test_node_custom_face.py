@@ -1,6 +1,7 @@
 """A connector of the user's own over real DDS: ``face: custom`` with a ``face_file``.
 
-The node's predictions for a face file equal the core's for the same file, and a file the
+The node's predictions for a face file equal the core's for the same file; the file is read
+when ``face`` or ``face_file`` is set, not on another parameter's change; and a file the
 node cannot use is refused with its reason while the node keeps its design: at run time also
 a hostile one (nested 10,000 deep, a 5,000-digit number, /dev/zero, a FIFO), which once ended
 the node or blocked its executor; at start, one line and exit code 2.
@@ -45,7 +46,21 @@ def test_streamed_predictions_for_a_face_file_equal_the_core(
     launch: Any, face_file: Path, x0_widths: float, theta0: float
 ) -> None:
     running = launch(face="custom", face_file=str(face_file), compute_margins=False)
+    values, expected = streamed_and_core(running, xf.load_face(face_file), (x0_widths, theta0))
+    assert_same_prediction(values, expected)
+    assert int(values["events"]) == expected.counters.events
+
+
+def streamed_and_core(
+    running: Any,
+    face: xf.FaceDesign,
+    pose: tuple[float, float] = POSES[0],
+    physics: xf.Physics | None = None,
+) -> tuple[dict[str, str], xf.Prediction]:
+    """Stream ``pose`` (x0 in widths, theta0) and return its status's values and the core's
+    prediction for ``face`` from the pose the node received."""
     c = running.client
+    x0_widths, theta0 = pose
     yaw = wrap_angle(theta0 + math.pi)
     sent, status = c.publish_until_status(lambda: c.pose_msg(x0_widths * WIDTH, Y_START, yaw))
     o = sent.pose.orientation
@@ -53,13 +68,53 @@ def test_streamed_predictions_for_a_face_file_equal_the_core(
         PlanarPose(sent.pose.position.x, sent.pose.position.y, planar_yaw(o.x, o.y, o.z, o.w))
     )
     expected = xf.predict(
-        xf.load_face(face_file), start.x0, start.theta0, y_start=start.y_start, margins=False
+        face, start.x0, start.theta0, y_start=start.y_start, physics=physics, margins=False
     )
-    v = c.values(status)
-    assert v["outcome"] == expected.outcome.name
-    assert float(v["final_phi_m_rad"]) == pytest.approx(expected.phi_m, abs=1e-12)
-    assert float(v["final_y_m"]) == pytest.approx(expected.pivot_m[1], abs=1e-12)
-    assert int(v["events"]) == expected.counters.events
+    values: dict[str, str] = c.values(status)
+    return values, expected
+
+
+def assert_same_prediction(values: dict[str, str], expected: xf.Prediction) -> None:
+    assert values["outcome"] == expected.outcome.name
+    assert float(values["final_phi_m_rad"]) == pytest.approx(expected.phi_m, abs=1e-12)
+    assert float(values["final_y_m"]) == pytest.approx(expected.pivot_m[1], abs=1e-12)
+
+
+#: The face file's design edited: the same outline at another width, so that every
+#: prediction's final height (m) differs from the file's first design's.
+EDITED = xf.custom_face([BASE], [MOVING], mated_distance=2.3, width=1.25 * WIDTH)
+
+
+def test_a_change_without_geometry_keeps_the_design_when_its_file_is_gone(
+    launch: Any, face_file: Path
+) -> None:
+    running = launch(face="custom", face_file=str(face_file), compute_margins=False)
+    face_file.unlink()
+    results = running.client.set_parameters(friction=0.1)
+    assert results[0].successful, results[0].reason
+    values, expected = streamed_and_core(running, DESIGN, physics=xf.Physics(friction=0.1))
+    assert_same_prediction(values, expected)
+
+
+def test_a_change_without_geometry_does_not_read_the_edited_file(
+    launch: Any, face_file: Path
+) -> None:
+    running = launch(face="custom", face_file=str(face_file), compute_margins=False)
+    xf.save_face(EDITED, face_file, name="lopsided notch, wider")
+    assert running.client.set_parameters(min_margin=0.001)[0].successful
+    values, expected = streamed_and_core(running, DESIGN)
+    assert_same_prediction(values, expected)
+    edited = xf.predict(EDITED, expected.x0, expected.theta0, y_start=expected.y_start)
+    assert float(values["final_y_m"]) != pytest.approx(edited.pivot_m[1], abs=1e-9)
+
+
+def test_setting_face_file_again_reads_the_edited_file(launch: Any, face_file: Path) -> None:
+    running = launch(face="custom", face_file=str(face_file), compute_margins=False)
+    xf.save_face(EDITED, face_file, name="lopsided notch, wider")
+    results = running.client.set_parameters(face_file=str(face_file))
+    assert results[0].successful, results[0].reason
+    values, expected = streamed_and_core(running, EDITED)
+    assert_same_prediction(values, expected)
 
 
 def test_a_face_file_that_cannot_be_read_is_refused_and_the_design_kept(

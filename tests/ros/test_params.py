@@ -211,6 +211,13 @@ def test_a_custom_face_takes_its_design_and_width_from_the_file(tmp_path: Path) 
     assert config.design.mated_distance == design.mated_distance
 
 
+def test_a_kept_design_is_used_without_reading_the_face_file(tmp_path: Path) -> None:
+    kept = make_face("V", 0.5, 1.0, width=0.08)
+    config = config_from_values(custom(str(tmp_path / "missing.yaml")), design=kept)
+    assert config.design is kept
+    assert config.width_m == 0.08
+
+
 # --- a face file the node cannot use is a refusal, never a crash or a hang ------------------
 
 
