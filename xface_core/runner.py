@@ -86,6 +86,26 @@ def thread_count(threads: object) -> int:
     raise XfaceValueError(f"threads must be an integer >= 1, got {threads!r}")
 
 
+#: Most worker processes one local pool starts (``m_table``, the cross-check, a study): each
+#: is a fork of a process that holds the compiled engine, so this bounds what a typo can start,
+#: far above any machine's cores.
+MAX_LOCAL_WORKERS = 1024
+
+
+def process_count(workers: object, jobs: int | None = None) -> int:
+    """The worker processes a local pool starts for ``jobs`` jobs (None: not known yet):
+    ``workers`` (None: one per core), an integer in [1, :data:`MAX_LOCAL_WORKERS`] (a numpy
+    integer too; a bool is refused), and never more than the jobs (a worker without a job
+    would only be forked and ended: ``xface table --workers 100000`` forked until it was
+    killed). Raises :class:`XfaceValueError` naming the value otherwise."""
+    if workers is None:
+        workers = DEFAULT_THREADS
+    elif not is_integer_in(workers, 1, MAX_LOCAL_WORKERS):
+        raise XfaceValueError(f"workers must be in [1, {MAX_LOCAL_WORKERS}], got {workers!r}")
+    n = int(cast(int, workers))
+    return n if jobs is None else max(1, min(n, jobs))
+
+
 def engine_is_cached() -> bool:
     """False when the next simulation compiles the engine first (:func:`engine_state`: no
     precompiled engine serves this process and numba's cache lacks an entry point), about a

@@ -5,10 +5,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 import xface_core as xf
 from xface_core.codes import Outcome
-from xface_core.runner import count_engine_calls, outcomes_at
+from xface_core.runner import MAX_LOCAL_WORKERS, count_engine_calls, outcomes_at, process_count
 
 
 @pytest.mark.parametrize("y_start", [None, 0.12, 0.02])
@@ -50,3 +52,21 @@ def test_every_call_is_counted_with_its_poses() -> None:
     with count_engine_calls() as calls:
         outcomes_at(xf.x_face(0.25, 1.0), np.zeros(4), 0.1, xf.Physics())
     assert (calls.calls, calls.poses) == (1, 4)
+
+
+@given(workers=st.integers(1, MAX_LOCAL_WORKERS) | st.none(), jobs=st.integers(1, 5000) | st.none())
+def test_a_pool_never_has_more_processes_than_jobs(workers: int | None, jobs: int | None) -> None:
+    n = process_count(workers, jobs)
+    asked = process_count(workers)  # one per core for None
+    assert n == (asked if jobs is None else min(asked, jobs))
+    assert 1 <= n <= MAX_LOCAL_WORKERS
+
+
+@pytest.mark.parametrize("workers", [0, -1, MAX_LOCAL_WORKERS + 1, 100_000, 2.0, True, "2"])
+def test_a_process_count_out_of_range_or_not_an_integer_is_refused(workers: object) -> None:
+    with pytest.raises(xf.XfaceValueError, match=r"workers must be in \[1, 1024\]"):
+        process_count(workers, 10)
+
+
+def test_a_numpy_integer_is_a_process_count() -> None:
+    assert process_count(np.int64(3), 10) == 3

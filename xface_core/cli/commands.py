@@ -61,7 +61,7 @@ from xface_core.maps.paper import (
 )
 from xface_core.physics import DEFAULT_PHYSICS, Physics
 from xface_core.predict import predict
-from xface_core.runner import engine_is_cached, xface_version
+from xface_core.runner import MAX_LOCAL_WORKERS, engine_is_cached, xface_version
 
 from .optimize import add_optimize_command
 from .progress import ProgressBar, terminal_progress
@@ -132,11 +132,13 @@ def _chunked(grid: int) -> Progress | None:
 
 
 def _check_workers(args: argparse.Namespace) -> None:
-    """``--workers``, where a command has it, counts processes: at least one."""
+    """``--workers``, where a command has it, counts processes: at least one, at most
+    ``MAX_LOCAL_WORKERS`` (the core checks the same; here the message names the flag)."""
     workers = getattr(args, "workers", None)
-    # sweep and design check their own range (cli_study: also an upper bound).
-    if args.command in ("table", "crosscheck") and workers is not None and workers < 1:
-        raise XfaceValueError(f"--workers must be >= 1, got {workers}")
+    # sweep, design and optimize check theirs in the core (run_study, search_faces).
+    if args.command in ("table", "crosscheck") and workers is not None:
+        if not 1 <= workers <= MAX_LOCAL_WORKERS:
+            raise XfaceValueError(f"--workers must be in [1, {MAX_LOCAL_WORKERS}], got {workers}")
 
 
 def _check_crosscheck(args: argparse.Namespace) -> None:
@@ -442,6 +444,11 @@ def _pose_uncertainty(
         raise XfaceValueError("--sigma-x and --sigma-theta must be finite and >= 0")
     if not 0.0 < args.level < 1.0:
         raise XfaceValueError(f"--level must be in (0, 1), got {args.level}")
+    if not (math.isfinite(sx * sx) and math.isfinite(st * st)):
+        raise XfaceValueError(
+            f"--sigma-x {sx:g} and --sigma-theta {st:g}: their squares (the covariance) "
+            "overflow; at most about 1e150"
+        )
     cov = [[sx * sx, 0.0], [0.0, st * st]]
     # One atlas for both questions (each would otherwise build its own: seconds).
     atlas = build_atlas(design, physics=physics)

@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import math
 import multiprocessing
-import os
 import sys
 import time
 from collections.abc import Callable, Iterator, Mapping, Sequence
@@ -38,7 +37,7 @@ from xface_core.geometry import FaceDesign
 from xface_core.maps.grids import theta_grid, x0_grid
 from xface_core.physics import Physics
 from xface_core.predict import predict
-from xface_core.runner import outcomes_at
+from xface_core.runner import outcomes_at, process_count
 
 from .journal import RunJournal
 from .scene import (
@@ -285,7 +284,7 @@ def _runs(
     progress: Progress | None,
 ) -> Iterator[EngineRun]:
     """:func:`run_engine`'s runs of ``tasks``, in their order, each as it ends."""
-    n_workers = max(1, os.cpu_count() or 1) if workers is None else max(1, workers)
+    n_workers = process_count(workers, len(tasks))
     start = time.monotonic()
     if n_workers == 1 or len(tasks) <= INLINE_RUNS:
         _init_worker(design, physics)

@@ -7,7 +7,6 @@ design over the paper's 11 H/D values x 11 r_p values.
 
 from __future__ import annotations
 
-import os
 from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
@@ -21,7 +20,7 @@ from xface_core.codes import Outcome
 from xface_core.errors import XfaceValueError
 from xface_core.geometry import FaceDesign, make_face
 from xface_core.physics import Physics, SolverSettings
-from xface_core.runner import outcomes_at
+from xface_core.runner import outcomes_at, process_count
 
 from .bounds import bound_table
 from .grids import PAPER_GRID_SIZE, PAPER_H_OVER_D, PAPER_R_P, ThetaGridKind, theta_grid, x0_grid
@@ -288,13 +287,11 @@ def m_table(
             raise XfaceValueError("the closed-form bound exists for the V and S faces only")
         m = bound_table(face, theta_grid=theta_kind, h_over_d=h_over_d, r_p=r_p, n=grid)  # type: ignore[arg-type]
     elif method == "sim":
-        if workers is not None and workers < 1:
-            raise XfaceValueError(f"workers must be >= 1, got {workers}")
-        n_workers = (os.cpu_count() or 1) if workers is None else workers
         # One thread per process: the processes already use every core.
         jobs = [
             (face, float(h), float(rp), grid, theta_kind, phys, 1) for h in h_over_d for rp in r_p
         ]
+        n_workers = process_count(workers, len(jobs))
         values: list[int] = []
         if n_workers <= 1:
             results: Iterable[int] = map(_map_m, jobs)

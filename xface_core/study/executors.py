@@ -24,7 +24,6 @@ order; callers that need an order sort afterwards.
 
 from __future__ import annotations
 
-import os
 import signal
 from collections.abc import Callable, Sequence
 from concurrent.futures import Executor, Future, ProcessPoolExecutor, as_completed
@@ -33,6 +32,7 @@ from multiprocessing import get_context
 from typing import Any, Protocol, TypeVar
 
 from xface_core.errors import XfaceError
+from xface_core.runner import process_count
 
 __all__ = ["ClientLike", "LocalPool", "WorkerLost", "execute"]
 
@@ -132,9 +132,9 @@ def execute(
     WorkerLost
         A job's worker died more than ``retries`` times (local pool), or Dask gave up on it.
     """
-    n_workers = (os.cpu_count() or 1) if workers is None else workers
     if not jobs:
         return
+    n_workers = process_count(workers)
     if executor is None and n_workers <= 1:
         for job in jobs:
             on_result(job, fn(job))
@@ -143,7 +143,9 @@ def execute(
     owned = executor is None  # a pool made here ends here; a caller's stays up
     target: Executor
     if executor is None:
-        pool = LocalPool(n_workers)
+        # Several asked for run in worker processes even for one job (a job that kills its
+        # process is then WorkerLost, not the caller's end), but never more than the jobs.
+        pool = LocalPool(min(n_workers, len(jobs)))
         target = pool.executor
     elif isinstance(executor, LocalPool):
         pool = executor

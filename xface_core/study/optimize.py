@@ -65,6 +65,7 @@ from xface_core.errors import XfaceValueError, is_integer_in, is_positive_up_to
 from xface_core.geometry import FaceDesign, custom_face, x_face
 from xface_core.maps.grids import ThetaGridKind
 from xface_core.physics import DEFAULT_SETTINGS, Physics, SolverSettings
+from xface_core.runner import process_count
 
 from .executors import ClientLike, LocalPool, execute
 from .noise import PoseNoise
@@ -515,7 +516,7 @@ def _workers(
 ) -> Iterator[Executor | ClientLike | LocalPool | None]:
     """The caller's executor; else local processes kept for the whole search (forked after
     the engine is loaded here), or this process for one worker."""
-    n = (os.cpu_count() or 1) if workers is None else workers
+    n = process_count(workers)
     if executor is not None or n <= 1:
         yield executor
         return

@@ -29,6 +29,7 @@ from xface_core.maps.acceptance import AcceptanceMap, acceptance_map
 from xface_core.maps.grids import MAX_GRID_SIZE, PAPER_GRID_SIZE, ThetaGridKind, theta_grid
 from xface_core.maps.regions import CellRect
 from xface_core.physics import DEFAULT_SETTINGS, Physics, SolverSettings
+from xface_core.runner import process_count
 
 from .executors import ClientLike, execute
 from .noise import PoseNoise, mean_seat_probability
@@ -56,9 +57,6 @@ __all__ = [
 
 #: Largest pose grid of a study (nodes per axis): 1001 x 1001 is 1e6 runs per design.
 MAX_STUDY_GRID = MAX_GRID_SIZE
-
-#: Most local worker processes (beyond one machine's cores, use a cluster).
-MAX_LOCAL_WORKERS = 1024
 
 
 @dataclass(frozen=True)
@@ -204,8 +202,8 @@ def run_study(
     [('V', 1.0, 3), ('V', 2.0, 3), ('X', 1.0, 11), ('X', 2.0, 5)]
     """
     check_study_grid(grid, theta_kind)
-    if workers is not None and not 1 <= workers <= MAX_LOCAL_WORKERS:
-        raise XfaceValueError(f"workers must be in [1, {MAX_LOCAL_WORKERS}], got {workers}")
+    if workers is not None:
+        process_count(workers)  # checked before the study file is touched
     points = space.points()
     designs = [space.design(p) for p in points]
     settings_of_study = study_settings(grid, theta_kind, settings, noise)

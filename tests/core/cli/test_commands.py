@@ -145,6 +145,19 @@ def test_negative_pose_noise_is_a_clear_error(capsys: pytest.CaptureFixture[str]
     assert "xface: error: --sigma-x and --sigma-theta must be finite" in capsys.readouterr().err
 
 
+def test_pose_noise_whose_square_overflows_names_the_flags(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    argv = ["predict", "--x0", "0", "--theta0", "0", "--sigma-x", "1e300", "--sigma-theta", "0"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    expected = (
+        "xface: error: --sigma-x 1e+300 and --sigma-theta 0: their squares (the covariance) "
+        "overflow; at most about 1e150"
+    )
+    assert err == [expected]
+
+
 def test_table_says_where_the_simulation_departs_from_the_paper(
     capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
 ) -> None:

@@ -7,6 +7,7 @@ import pytest
 
 import xface_core as xf
 from xface_core import Outcome
+from xface_core.maps import acceptance
 from xface_core.maps.paper import paper_table
 
 
@@ -76,6 +77,27 @@ def test_table_does_not_depend_on_worker_count() -> None:
     serial = xf.m_table("S", workers=1, **kw)  # type: ignore[arg-type]
     parallel = xf.m_table("S", workers=2, **kw)  # type: ignore[arg-type]
     assert np.array_equal(serial.M, parallel.M)
+
+
+def test_a_table_starts_no_more_processes_than_designs(monkeypatch: pytest.MonkeyPatch) -> None:
+    started: list[int] = []
+
+    class CountedPool(acceptance.ProcessPoolExecutor):
+        def __init__(self, max_workers: int, **kw: object) -> None:
+            started.append(max_workers)
+            super().__init__(max_workers, **kw)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(acceptance, "ProcessPoolExecutor", CountedPool)
+    kw = {"h_over_d": (0.25, 2.0), "r_p": (1.0,), "grid": 5}
+    table = xf.m_table("V", workers=64, **kw)  # type: ignore[arg-type]
+    assert started == [2]
+    assert np.array_equal(table.M, xf.m_table("V", workers=1, **kw).M)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("workers", [0, 100_000])
+def test_a_table_refuses_a_worker_count_out_of_range(workers: int) -> None:
+    with pytest.raises(xf.XfaceValueError, match="workers must be in"):
+        xf.m_table("V", h_over_d=(0.25,), r_p=(1.0,), grid=5, workers=workers)
 
 
 def test_bound_for_x_face_is_refused() -> None:

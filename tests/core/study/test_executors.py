@@ -12,6 +12,7 @@ from typing import Any
 
 import pytest
 
+from xface_core.study import executors
 from xface_core.study.executors import LocalPool, WorkerLost, execute
 
 
@@ -39,6 +40,21 @@ def test_a_worker_that_dies_is_replaced_and_its_job_run_again(tmp_path: Path) ->
 def test_a_job_that_always_kills_its_worker_is_given_up(tmp_path: Path) -> None:
     with pytest.raises(WorkerLost, match="died 2 times"):
         execute(_always_die, [1], lambda j, r: None, workers=2, retries=1)
+
+
+def test_a_local_pool_has_no_more_processes_than_jobs(monkeypatch: pytest.MonkeyPatch) -> None:
+    sizes: list[int] = []
+
+    class CountedPool(LocalPool):
+        def __init__(self, workers: int) -> None:
+            sizes.append(workers)
+            super().__init__(workers)
+
+    monkeypatch.setattr(executors, "LocalPool", CountedPool)
+    results: dict[int, int] = {}
+    execute(abs, [-1, -2], results.__setitem__, workers=64)
+    assert sizes == [2]
+    assert results == {-1: 1, -2: 2}
 
 
 def test_one_worker_runs_in_this_process() -> None:
