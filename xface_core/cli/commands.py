@@ -65,7 +65,13 @@ from xface_core.runner import MAX_LOCAL_WORKERS, engine_is_cached, xface_version
 
 from .optimize import add_optimize_command
 from .progress import ProgressBar, terminal_progress
-from .study import EXIT_INTERRUPTED, add_study_commands, atomic_output, json_default
+from .study import (
+    EXIT_INTERRUPTED,
+    WORKERS_HELP,
+    add_study_commands,
+    atomic_output,
+    json_default,
+)
 
 __all__ = ["main"]
 
@@ -1050,7 +1056,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="default: paper for bounds, symmetric for simulations",
     )
     _physics_args(p)
-    p.add_argument("--workers", type=int, default=None, help="processes (default: all cores)")
+    p.add_argument("--workers", type=int, default=None, help=WORKERS_HELP.format(what="processes"))
     p.add_argument("--quiet", action="store_true", help="no progress bar on stderr")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=_cmd_table)
@@ -1075,7 +1081,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="with --converged: each halving runs every cell (grid) or only the cells the "
         "halving before changed (cells: faster)",
     )  # fmt: skip
-    p.add_argument("--workers", type=int, default=None, help="processes (default: all cores)")
+    p.add_argument("--workers", type=int, default=None, help=WORKERS_HELP.format(what="processes"))
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
     p.add_argument("--json", action="store_true", help="machine-readable output")
     p.set_defaults(func=_cmd_crosscheck)

@@ -32,6 +32,7 @@ from xface_core.errors import XfaceValueError, XfaceWarning
 from xface_core.facefile import load_face
 from xface_core.maps.grids import PAPER_GRID_SIZE
 from xface_core.maps.paper import DEPARTURE_FROM_PAPER
+from xface_core.runner import MAX_LOCAL_WORKERS
 from xface_core.study.noise import PoseNoise
 from xface_core.study.run import MAX_STUDY_GRID, StudyProgress, read_study, run_study
 from xface_core.study.search import (
@@ -50,6 +51,12 @@ __all__ = ["add_study_commands", "atomic_output", "json_default"]
 
 #: Exit code of a run stopped by SIGINT or SIGTERM (128 + SIGINT, the shell's convention).
 EXIT_INTERRUPTED = 130
+
+#: ``--workers``' help (``what``: the processes it counts), for every command that has it.
+WORKERS_HELP = (
+    "{what}, 1 to " + str(MAX_LOCAL_WORKERS) + ", never more than there are jobs "
+    "(default: one per core)"
+)
 
 
 class ProgressBar(progress.ProgressBar):
@@ -401,7 +408,9 @@ def _common_study_args(p: argparse.ArgumentParser) -> None:
     where.add_argument(
         "--scheduler", default=None, help="Dask scheduler address tcp://HOST:PORT (cluster extra)"
     )
-    where.add_argument("--workers", type=int, default=None, help="local processes (default: all)")
+    where.add_argument(
+        "--workers", type=int, default=None, help=WORKERS_HELP.format(what="local processes")
+    )
     p.add_argument("--sigma-x", type=float, default=None, help="pose noise: std of x0 (D)")
     p.add_argument("--sigma-theta", type=float, default=None, help="pose noise: std of theta0")
     p.add_argument("--noise-samples", type=int, default=16, help="noisy poses per grid node")
