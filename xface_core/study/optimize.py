@@ -387,6 +387,7 @@ def optimize_face(
 
     _check_search(criterion, grid, theta_kind, noise, budget, popsize, sigma0, seed)
     Physics(damping_ratio=damping_ratio, friction=friction, settings=settings)  # validates
+    process_count(workers)  # validates, before the folder is made
     folder = Path(out)
     try:
         folder.mkdir(parents=True, exist_ok=True)

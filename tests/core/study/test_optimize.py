@@ -105,6 +105,16 @@ def test_seat_probability_without_a_pose_noise_is_refused(tmp_path: Path) -> Non
         optimize_face(ProfileFamily(0.25, 1.0), tmp_path, criterion="seat_probability", grid=GRID)
 
 
+@pytest.mark.parametrize("workers", [0, 100_000])
+def test_a_worker_count_out_of_range_is_refused_before_the_folder_is_made(
+    tmp_path: Path, workers: int
+) -> None:
+    out = tmp_path / "search"
+    with pytest.raises(XfaceValueError, match=re.escape("workers must be in [1, 1024]")):
+        optimize_face(ProfileFamily(0.25, 1.0), out, grid=GRID, workers=workers)
+    assert not out.exists()
+
+
 def _search(out: Path, **kwargs: object) -> FaceSearch:
     options: dict[str, object] = {"grid": GRID, "budget": BUDGET, "workers": 1, "popsize": 6}
     options.update(kwargs)
