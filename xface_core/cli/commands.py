@@ -141,7 +141,7 @@ def _check_workers(args: argparse.Namespace) -> None:
     """``--workers``, where a command has it, counts processes: at least one, at most
     ``MAX_LOCAL_WORKERS`` (the core checks the same; here the message names the flag)."""
     workers = getattr(args, "workers", None)
-    # sweep, design and optimize check theirs in the core (run_study, search_faces).
+    # sweep, design and optimize check theirs in the core (run_study, optimize_face).
     if args.command in ("table", "crosscheck") and workers is not None:
         if not 1 <= workers <= MAX_LOCAL_WORKERS:
             raise XfaceValueError(f"--workers must be in [1, {MAX_LOCAL_WORKERS}], got {workers}")
