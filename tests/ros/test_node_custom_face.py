@@ -59,10 +59,7 @@ def streamed_and_core(
 ) -> tuple[dict[str, str], xf.Prediction]:
     """Stream ``pose`` (x0 in widths, theta0) and return its status's values and the core's
     prediction for ``face`` from the pose the node received."""
-    c = running.client
-    x0_widths, theta0 = pose
-    yaw = wrap_angle(theta0 + math.pi)
-    sent, status = c.publish_until_status(lambda: c.pose_msg(x0_widths * WIDTH, Y_START, yaw))
+    sent, values = streamed(running, *pose)
     o = sent.pose.orientation
     start = relative_pose_to_start(
         PlanarPose(sent.pose.position.x, sent.pose.position.y, planar_yaw(o.x, o.y, o.z, o.w))
@@ -70,8 +67,16 @@ def streamed_and_core(
     expected = xf.predict(
         face, start.x0, start.theta0, y_start=start.y_start, physics=physics, margins=False
     )
-    values: dict[str, str] = c.values(status)
     return values, expected
+
+
+def streamed(running: Any, x0_widths: float, theta0: float) -> tuple[Any, dict[str, str]]:
+    """Stream a pose; the pose sent and its status's values."""
+    c = running.client
+    yaw = wrap_angle(theta0 + math.pi)
+    sent, status = c.publish_until_status(lambda: c.pose_msg(x0_widths * WIDTH, Y_START, yaw))
+    values: dict[str, str] = c.values(status)
+    return sent, values
 
 
 def assert_same_prediction(values: dict[str, str], expected: xf.Prediction) -> None:
@@ -151,22 +156,13 @@ def hostile_face_files(tmp_path: Path, good: Path) -> dict[str, str]:
     }
 
 
-def predicted_status(running: Any, x0_widths: float, theta0: float) -> dict[str, str]:
-    """Stream a pose and return its status's values."""
-    c = running.client
-    yaw = wrap_angle(theta0 + math.pi)
-    _sent, status = c.publish_until_status(lambda: c.pose_msg(x0_widths * WIDTH, Y_START, yaw))
-    values: dict[str, str] = c.values(status)
-    return values
-
-
 @pytest.mark.slow
 def test_hostile_face_files_at_run_time_are_refused_and_the_node_runs_on_its_design(
     launch: Any, face_file: Path, tmp_path: Path
 ) -> None:
     running = launch(face="custom", face_file=str(face_file), compute_margins=False)
     c = running.client
-    before = predicted_status(running, *POSES[0])
+    _, before = streamed(running, *POSES[0])
     for what, path in hostile_face_files(tmp_path, face_file).items():
         results = c.set_parameters(face_file=path)
         assert not results[0].successful, what
@@ -174,7 +170,7 @@ def test_hostile_face_files_at_run_time_are_refused_and_the_node_runs_on_its_des
         assert c.get_parameter("face_file") == str(face_file), what
         diagnostics_seen = c.diagnostics.count()
         c.diagnostics.wait_for(lambda _msg, n=diagnostics_seen: c.diagnostics.count() > n)
-        after = predicted_status(running, *POSES[0])  # the old design's prediction
+        _, after = streamed(running, *POSES[0])  # the old design's prediction
         assert after["outcome"] == before["outcome"], what
         assert after["final_phi_m_rad"] == before["final_phi_m_rad"], what
         assert after["final_y_m"] == before["final_y_m"], what

@@ -202,8 +202,7 @@ def run_study(
     [('V', 1.0, 3), ('V', 2.0, 3), ('X', 1.0, 11), ('X', 2.0, 5)]
     """
     check_study_grid(grid, theta_kind)
-    if workers is not None:
-        process_count(workers)  # checked before the study file is touched
+    process_count(workers)  # checked before the study file is touched
     points = space.points()
     designs = [space.design(p) for p in points]
     settings_of_study = study_settings(grid, theta_kind, settings, noise)
